@@ -1,0 +1,92 @@
+# The one entry point of the project. Compilers and flags are the usual variables, so on a cluster:
+#   module load gcc openmpi cuda; make CXX=g++ MPICXX=mpicxx NVCC=nvcc CUDA_ARCH=80 OPT="-O3 -march=native"
+# What cannot be built here (no MPI compiler, no nvcc) is left out with one line saying why.
+
+CXX       ?= g++
+MPICXX    ?= mpicxx
+NVCC      ?= nvcc
+CUDA_ARCH ?= 90
+OPT       ?= -O3 -march=native
+PYTHON    ?= python3
+VENV      ?= .venv
+
+BUILD := build
+BIN   := bin
+
+HAVE_MPI  := $(if $(shell command -v $(MPICXX) 2>/dev/null),1,)
+NVCC_PATH := $(shell command -v $(NVCC) 2>/dev/null)
+HAVE_CUDA := $(if $(NVCC_PATH),1,)
+CUDA_HOME ?= $(if $(NVCC_PATH),$(abspath $(dir $(NVCC_PATH))/..),)
+
+comma := ,
+DEFS := $(if $(HAVE_MPI),-DHAVE_MPI -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX) $(if $(HAVE_CUDA),-DHAVE_CUDA)
+CPPFLAGS += -I. -I$(BUILD)/gen $(DEFS)
+CXXFLAGS += -std=c++17 $(OPT) -fopenmp -Wall -Wextra -MMD -MP
+NVCCFLAGS ?= -O3 -std=c++17 -arch=sm_$(CUDA_ARCH) -Xcompiler -fopenmp
+LDLIBS   += $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
+LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
+# Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX).
+MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp
+
+COMMON_SRC  := common/cli.cpp common/record.cpp
+POISSON_SRC := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp)
+POISSON_CU  := $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
+UNIT_SRC    := $(wildcard tests/unit/*.cpp)
+
+obj = $(patsubst %,$(BUILD)/%.o,$(1))
+LIB_OBJ  := $(call obj,$(COMMON_SRC) $(POISSON_SRC) $(POISSON_CU))
+PROGRAMS := $(BIN)/poisson
+
+.PHONY: all test unit pytest deps clean help FORCE
+all: $(PROGRAMS)
+	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
+	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: no '$(NVCC)' on PATH (set NVCC=...); backends cublas1, cublas2, cuda are not built")
+
+help:
+	@echo "make            build bin/ (what this machine can build)"
+	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
+	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
+	@echo "make clean      remove build/ and bin/"
+	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV"
+
+# Provenance baked into the binaries; rewritten only when its content changes, so nothing rebuilds needlessly.
+$(BUILD)/gen/build_info.inc: FORCE
+	@mkdir -p $(@D)
+	@{ echo '#define HPCGI_GIT_COMMIT "$(shell git rev-parse HEAD 2>/dev/null || echo unknown)"'; \
+	   echo '#define HPCGI_GIT_DIRTY $(shell git diff --quiet HEAD -- 2>/dev/null && echo 0 || echo 1)'; \
+	   echo '#define HPCGI_CXX_VERSION "$(shell $(LINK) --version 2>/dev/null | head -1 | sed 's/"/\\"/g')"'; \
+	   echo '#define HPCGI_CXXFLAGS "$(CXXFLAGS) $(DEFS)"'; \
+	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
+	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
+$(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc
+
+$(BUILD)/%.cpp.o: %.cpp
+	@mkdir -p $(@D)
+	$(if $(filter $<,$(MPI_SOURCES)),$(MPICXX),$(CXX)) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
+
+$(BUILD)/%.cu.o: %.cu
+	@mkdir -p $(@D)
+	$(NVCC) -ccbin $(CXX) $(CPPFLAGS) $(NVCCFLAGS) -MMD -MP -c $< -o $@
+
+$(BIN)/poisson: $(call obj,poisson/main.cpp) $(LIB_OBJ)
+	@mkdir -p $(@D)
+	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
+
+$(BUILD)/tests/unit_tests: $(call obj,$(UNIT_SRC)) $(LIB_OBJ)
+	@mkdir -p $(@D)
+	$(LINK) $(CXXFLAGS) $^ -o $@ -lgtest -lgtest_main -pthread $(LDLIBS)
+
+deps:
+	@common/deps.sh
+
+# make test: install what is missing, build, run the C++ unit tests, then pytest (whose summary line is last).
+test:
+	@common/deps.sh --check || common/deps.sh
+	@$(MAKE) --no-print-directory all $(BUILD)/tests/unit_tests
+	$(BUILD)/tests/unit_tests --gtest_brief=1
+	$(VENV)/bin/python -m pytest tests
+
+clean:
+	rm -rf $(BUILD) $(BIN)
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -1,0 +1,37 @@
+// Command-line conventions of every program: CLI11 for parsing, "--help" exits 0, any parse error exits 2 with
+// one line on stderr, UsageError exits 2, NumericalError exits 3, anything else exits 1.
+#pragma once
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+namespace hpcgi {
+
+// Runs body() and turns the project's exceptions into exit statuses and one-line messages.
+int run_main(const std::string& program, const std::function<int()>& body);
+
+// Parses argv; on --help/--version prints and returns 0 through `exit_code`, on error prints one line and
+// returns 2. Returns true when the program should go on.
+bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code);
+
+// A validator for floating-point options: finite and > 0 (rejects NaN, inf, 0 and negatives).
+inline CLI::Validator positive_finite() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          size_t pos = 0;
+          v = std::stod(s, &pos);
+          if (pos != s.size()) return "'" + s + "' is not a number";
+        } catch (...) {
+          return "'" + s + "' is not a number";
+        }
+        if (!std::isfinite(v) || v <= 0) return "must be a finite number > 0, got " + s;
+        return {};
+      },
+      "POSITIVE");
+}
+
+}  // namespace hpcgi

@@ -1,0 +1,71 @@
+// Every CUDA and cuBLAS call of the project goes through these checks; a failure throws with the call, the file
+// and the line. Kernel launches are followed by CUDA_CHECK_LAUNCH().
+#pragma once
+#include <cublas_v2.h>
+#include <cuda_runtime.h>
+
+#include <stdexcept>
+#include <string>
+
+#include "common/errors.hpp"
+
+namespace hpcgi {
+
+[[noreturn]] inline void cuda_fail(const char* call, const char* msg, const char* file, int line) {
+  throw std::runtime_error(std::string("CUDA: ") + call + " failed: " + msg + " (" + file + ":" +
+                           std::to_string(line) + ")");
+}
+
+#define CUDA_CHECK(call)                                                                       \
+  do {                                                                                         \
+    cudaError_t err_ = (call);                                                                 \
+    if (err_ != cudaSuccess) ::hpcgi::cuda_fail(#call, cudaGetErrorString(err_), __FILE__, __LINE__); \
+  } while (0)
+
+#define CUDA_CHECK_LAUNCH() CUDA_CHECK(cudaGetLastError())
+
+#define CUBLAS_CHECK(call)                                                                        \
+  do {                                                                                            \
+    cublasStatus_t st_ = (call);                                                                  \
+    if (st_ != CUBLAS_STATUS_SUCCESS)                                                             \
+      ::hpcgi::cuda_fail(#call, cublasGetStatusString(st_), __FILE__, __LINE__);                 \
+  } while (0)
+
+// Throws UsageError (exit status 2) when no usable GPU is present, naming what CUDA said.
+inline void require_gpu(const std::string& who) {
+  int count = 0;
+  cudaError_t err = cudaGetDeviceCount(&count);
+  if (err != cudaSuccess || count == 0) {
+    cudaGetLastError();  // clear the sticky error
+    throw UsageError(who + " needs an NVIDIA GPU, and none is usable here (" +
+                     (err != cudaSuccess ? std::string(cudaGetErrorString(err)) : std::string("no device")) + ")");
+  }
+}
+
+// Throws UsageError when `bytes` will not fit in the free memory of the current GPU.
+inline void require_device_memory(const std::string& who, double bytes) {
+  size_t free_b = 0, total_b = 0;
+  CUDA_CHECK(cudaMemGetInfo(&free_b, &total_b));
+  if (bytes > static_cast<double>(free_b))
+    throw UsageError(who + " needs " + std::to_string(bytes / (1 << 30)) + " GiB of GPU memory, and the GPU has " +
+                     std::to_string(static_cast<double>(free_b) / (1 << 30)) + " GiB free of " +
+                     std::to_string(static_cast<double>(total_b) / (1 << 30)) + " GiB");
+}
+
+// An owning device array.
+template <class T>
+class DeviceArray {
+ public:
+  explicit DeviceArray(size_t n) : n_(n) { CUDA_CHECK(cudaMalloc(&p_, n * sizeof(T))); }
+  ~DeviceArray() { cudaFree(p_); }
+  DeviceArray(const DeviceArray&) = delete;
+  DeviceArray& operator=(const DeviceArray&) = delete;
+  T* get() const { return p_; }
+  size_t size() const { return n_; }
+
+ private:
+  T* p_ = nullptr;
+  size_t n_;
+};
+
+}  // namespace hpcgi

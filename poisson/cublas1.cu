@@ -1,0 +1,64 @@
+// The report's "cuBLAS 1" (§3.2): own stencil and axpby kernels, cuBLAS for the dot products only.
+// One iteration: w = Ap (2 vectors), p·w (2), x = x + αp (3), r = r - αw (3), r·r (1), p = r + βp (3): 14.
+#include "poisson/backends.hpp"
+#include "poisson/gpu_base.cuh"
+
+namespace poisson {
+namespace {
+
+// y = a x + b y over the whole padded array (ghosts are zero and stay zero).
+template <class T>
+__global__ void axpby_kernel(long len, T a, const T* __restrict__ x, T b, T* __restrict__ y) {
+  const long k = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (k < len) y[k] = a * x[k] + b * y[k];
+}
+
+template <class T>
+class Cublas1 final : public GpuBase<T> {
+  using B = GpuBase<T>;
+
+ public:
+  explicit Cublas1(const Config& cfg) : B(cfg, "cublas1") {}
+
+  double calc_w() override {
+    B::stencil(B::p_.get(), B::w_.get());
+    return dot(B::p_.get(), B::w_.get());
+  }
+  double calc_ur(double alpha) override {
+    axpby(alpha, B::p_.get(), 1.0, B::x_.get());
+    axpby(-alpha, B::w_.get(), 1.0, B::r_.get());
+    return dot(B::r_.get(), B::r_.get());
+  }
+  void calc_p(double beta) override { axpby(1.0, B::r_.get(), beta, B::p_.get()); }
+  int vectors_per_iteration() const override { return 14; }
+  std::map<std::string, std::string> info() const override {
+    auto i = B::info();
+    i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";
+    return i;
+  }
+
+ private:
+  double dot(const T* a, const T* b) {
+    double out = 0;
+    CUBLAS_CHECK(blas_dot(blas_.get(), B::blas_len(), a, b, &out));
+    return out;
+  }
+  void axpby(double a, const T* x, double b, T* y) {
+    const long len = B::size_;
+    axpby_kernel<T><<<static_cast<unsigned>((len + kBlock - 1) / kBlock), kBlock>>>(len, static_cast<T>(a), x,
+                                                                                      static_cast<T>(b), y);
+    CUDA_CHECK_LAUNCH();
+  }
+  BlasHandle blas_;
+};
+
+}  // namespace
+
+template <class T>
+std::unique_ptr<Kernels<T>> make_cublas1(const Config& cfg) {
+  return std::make_unique<Cublas1<T>>(cfg);
+}
+template std::unique_ptr<Kernels<float>> make_cublas1(const Config&);
+template std::unique_ptr<Kernels<double>> make_cublas1(const Config&);
+
+}  // namespace poisson

@@ -1,0 +1,54 @@
+// The report's "cuBLAS 2" (§3.2): own stencil kernel, every vector operation through cuBLAS (dot, axpy, scal).
+// One iteration: w = Ap (2), p·w (2), axpy x (3), axpy r (3), r·r (1), p = βp (2) then p += r (3): 16 vectors.
+#include "poisson/backends.hpp"
+#include "poisson/gpu_base.cuh"
+
+namespace poisson {
+namespace {
+
+template <class T>
+class Cublas2 final : public GpuBase<T> {
+  using B = GpuBase<T>;
+
+ public:
+  explicit Cublas2(const Config& cfg) : B(cfg, "cublas2") {}
+
+  double calc_w() override {
+    B::stencil(B::p_.get(), B::w_.get());
+    return dot(B::p_.get(), B::w_.get());
+  }
+  double calc_ur(double alpha) override {
+    CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), alpha, B::p_.get(), B::x_.get()));
+    CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), -alpha, B::w_.get(), B::r_.get()));
+    return dot(B::r_.get(), B::r_.get());
+  }
+  void calc_p(double beta) override {
+    CUBLAS_CHECK(blas_scal(blas_.get(), B::blas_len(), beta, B::p_.get()));
+    CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), 1.0, B::r_.get(), B::p_.get()));
+  }
+  int vectors_per_iteration() const override { return 16; }
+  std::map<std::string, std::string> info() const override {
+    auto i = B::info();
+    i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";
+    return i;
+  }
+
+ private:
+  double dot(const T* a, const T* b) {
+    double out = 0;
+    CUBLAS_CHECK(blas_dot(blas_.get(), B::blas_len(), a, b, &out));
+    return out;
+  }
+  BlasHandle blas_;
+};
+
+}  // namespace
+
+template <class T>
+std::unique_ptr<Kernels<T>> make_cublas2(const Config& cfg) {
+  return std::make_unique<Cublas2<T>>(cfg);
+}
+template std::unique_ptr<Kernels<float>> make_cublas2(const Config&);
+template std::unique_ptr<Kernels<double>> make_cublas2(const Config&);
+
+}  // namespace poisson

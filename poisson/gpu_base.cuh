@@ -1,0 +1,165 @@
+// What the three CUDA backends share: the vectors on the device in the padded (N+2)×(N+2) layout (zero ghost
+// rows and columns, so the stencil needs no branches and whole-array BLAS calls see zeros there), the stencil
+// kernel, and the host-side checks after the solve (true residual, error, solution).
+#pragma once
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "common/cuda_check.cuh"
+#include "poisson/kernels.hpp"
+
+namespace poisson {
+
+inline constexpr int kBlock = 256;
+
+// out = A in on the interior points (one thread per point, consecutive threads along x).
+template <class T>
+__global__ void stencil_kernel(long n, long s, const T* __restrict__ in, T* __restrict__ out) {
+  const long k = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
+  if (k >= n * n) return;
+  const long idx = (k / n + 1) * s + (k % n) + 1;
+  out[idx] = 4 * in[idx] - in[idx - 1] - in[idx + 1] - in[idx - s] - in[idx + s];
+}
+
+template <class T>
+class GpuBase : public Kernels<T> {
+ protected:
+  GpuBase(const Config& cfg, const std::string& name)
+      : n_((hpcgi::require_gpu("backend " + name), cfg.n)), s_(cfg.n + 2), size_(s_ * s_),
+        x_((check_fits(name), size_)), r_(size_), p_(size_), w_(size_), b_(size_), name_(name) {
+    Grid g{n_};
+    std::vector<T> b(size_, T(0));
+    for (long j = 0; j < n_; ++j)
+      for (long i = 0; i < n_; ++i) b[(j + 1) * s_ + i + 1] = static_cast<T>(g.b(i, j));
+    bb_ = 0;
+    for (T v : b) bb_ += static_cast<double>(v) * v;
+    host_b_ = std::move(b);
+    CUDA_CHECK(cudaMemcpy(b_.get(), host_b_.data(), size_ * sizeof(T), cudaMemcpyHostToDevice));
+    CUDA_CHECK(cudaMemset(w_.get(), 0, size_ * sizeof(T)));
+  }
+
+  // x = 0, r = p = b (device copies), r·r from the host copy of b.
+  double init_vectors() {
+    CUDA_CHECK(cudaMemset(x_.get(), 0, size_ * sizeof(T)));
+    CUDA_CHECK(cudaMemcpy(r_.get(), b_.get(), size_ * sizeof(T), cudaMemcpyDeviceToDevice));
+    CUDA_CHECK(cudaMemcpy(p_.get(), b_.get(), size_ * sizeof(T), cudaMemcpyDeviceToDevice));
+    return bb_;
+  }
+
+  void stencil(const T* in, T* out) {
+    const long pts = n_ * n_;
+    stencil_kernel<T><<<static_cast<unsigned>((pts + kBlock - 1) / kBlock), kBlock>>>(n_, s_, in, out);
+    CUDA_CHECK_LAUNCH();
+  }
+
+  int blas_len() const { return static_cast<int>(size_); }
+
+ public:
+  double init() override { return init_vectors(); }
+
+  double true_residual2() override {
+    const std::vector<T> x = host_x();
+    double sum = 0;
+    for (long j = 1; j <= n_; ++j)
+      for (long i = 1; i <= n_; ++i) {
+        const long k = j * s_ + i;
+        const double ax = 4.0 * x[k] - x[k - 1] - x[k + 1] - x[k - s_] - x[k + s_];
+        const double d = host_b_[k] - ax;
+        sum += d * d;
+      }
+    return sum;
+  }
+
+  double error_inf() override {
+    const std::vector<T> x = host_x();
+    Grid g{n_};
+    double e = 0;
+    for (long j = 0; j < n_; ++j)
+      for (long i = 0; i < n_; ++i)
+        e = std::max(e, std::abs(static_cast<double>(x[(j + 1) * s_ + i + 1]) - g.u(i, j)));
+    return e;
+  }
+
+  std::vector<double> solution() override {
+    const std::vector<T> x = host_x();
+    std::vector<double> out(n_ * n_);
+    for (long j = 0; j < n_; ++j)
+      for (long i = 0; i < n_; ++i) out[j * n_ + i] = x[(j + 1) * s_ + i + 1];
+    return out;
+  }
+
+  std::map<std::string, std::string> info() const override {
+    int dev = 0, rt = 0, drv = 0;
+    cudaDeviceProp prop{};
+    CUDA_CHECK(cudaGetDevice(&dev));
+    CUDA_CHECK(cudaGetDeviceProperties(&prop, dev));
+    CUDA_CHECK(cudaRuntimeGetVersion(&rt));
+    CUDA_CHECK(cudaDriverGetVersion(&drv));
+    return {{"threads", "1"},
+            {"gpu", prop.name},
+            {"gpu_cc", std::to_string(prop.major) + "." + std::to_string(prop.minor)},
+            {"gpu_memory_GiB", std::to_string(prop.totalGlobalMem / double(1 << 30))},
+            {"cuda_runtime", std::to_string(rt)},
+            {"cuda_driver", std::to_string(drv)}};
+  }
+
+ private:
+  void check_fits(const std::string& name) const {
+    if (size_ > INT_MAX) throw hpcgi::UsageError("backend " + name + ": N is too large for 32-bit BLAS lengths");
+    hpcgi::require_device_memory("backend " + name + " at N = " + std::to_string(n_),
+                                 5.0 * static_cast<double>(size_) * sizeof(T));
+  }
+  std::vector<T> host_x() const {
+    std::vector<T> x(size_);
+    CUDA_CHECK(cudaMemcpy(x.data(), x_.get(), size_ * sizeof(T), cudaMemcpyDeviceToHost));
+    return x;
+  }
+
+ protected:
+  long n_, s_, size_;
+  hpcgi::DeviceArray<T> x_, r_, p_, w_, b_;
+  std::string name_;
+  std::vector<T> host_b_;
+  double bb_ = 0;
+};
+
+// Typed cuBLAS wrappers: the D routines for double, the S routines for float.
+inline cublasStatus_t blas_dot(cublasHandle_t h, int n, const double* x, const double* y, double* out) {
+  return cublasDdot(h, n, x, 1, y, 1, out);
+}
+inline cublasStatus_t blas_dot(cublasHandle_t h, int n, const float* x, const float* y, double* out) {
+  float f = 0;
+  cublasStatus_t st = cublasSdot(h, n, x, 1, y, 1, &f);
+  *out = f;
+  return st;
+}
+inline cublasStatus_t blas_axpy(cublasHandle_t h, int n, double a, const double* x, double* y) {
+  return cublasDaxpy(h, n, &a, x, 1, y, 1);
+}
+inline cublasStatus_t blas_axpy(cublasHandle_t h, int n, double a, const float* x, float* y) {
+  const float af = static_cast<float>(a);
+  return cublasSaxpy(h, n, &af, x, 1, y, 1);
+}
+inline cublasStatus_t blas_scal(cublasHandle_t h, int n, double a, double* x) { return cublasDscal(h, n, &a, x, 1); }
+inline cublasStatus_t blas_scal(cublasHandle_t h, int n, double a, float* x) {
+  const float af = static_cast<float>(a);
+  return cublasSscal(h, n, &af, x, 1);
+}
+
+// A cuBLAS handle that lives as long as the backend.
+class BlasHandle {
+ public:
+  BlasHandle() { CUBLAS_CHECK(cublasCreate(&h_)); }
+  ~BlasHandle() { cublasDestroy(h_); }
+  BlasHandle(const BlasHandle&) = delete;
+  BlasHandle& operator=(const BlasHandle&) = delete;
+  cublasHandle_t get() const { return h_; }
+
+ private:
+  cublasHandle_t h_{};
+};
+
+}  // namespace poisson

@@ -1,0 +1,61 @@
+// The contract every Poisson CG backend fulfils (after TeaLeaf): the CG algorithm lives once in cg.hpp, each
+// backend supplies the same fused kernels on its own memory. Scalars cross the interface in double; vectors live
+// in the backend in precision T (float or double). Dots are global (MPI backends reduce across ranks).
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "poisson/problem.hpp"
+
+namespace poisson {
+
+struct Config {
+  long n = 512;
+  std::string backend = "serial";
+  std::string halo = "nonblocking";  // mpi: MPI_Isend/Irecv or MPI_Send/Recv
+  int threads = 0;                   // 0: the OpenMP default (OMP_NUM_THREADS or all cores)
+};
+
+template <class T>
+class Kernels {
+ public:
+  virtual ~Kernels() = default;
+  // x = 0, r = p = b; returns r·r.
+  virtual double init() = 0;
+  // w = A p; returns p·w.
+  virtual double calc_w() = 0;
+  // x += α p, r -= α w; returns r·r.
+  virtual double calc_ur(double alpha) = 0;
+  // p = r + β p.
+  virtual void calc_p(double beta) = 0;
+  // ‖b - A x‖₂², computed from x (not the recursive r).
+  virtual double true_residual2() = 0;
+  // max |x_ij - u(x_i, y_j)| over the whole grid.
+  virtual double error_inf() = 0;
+  // The whole solution x (N×N, row j = y index), on the rank that prints (rank 0); empty elsewhere.
+  virtual std::vector<double> solution() = 0;
+  // Vectors of N² values one iteration streams through memory (the data-movement model of the backend).
+  virtual int vectors_per_iteration() const = 0;
+  // Backend facts for the record: threads, ranks, halo mode, MPI library, GPU name, ...
+  virtual std::map<std::string, std::string> info() const = 0;
+  // Whether this process prints and writes records (rank 0 of an MPI run, always true otherwise).
+  virtual bool is_root() const { return true; }
+};
+
+// Every backend name this program knows, and whether it was built in this binary (with the reason if not).
+struct BackendEntry {
+  std::string name;
+  std::string summary;
+  bool built;
+  std::string why_not;
+};
+const std::vector<BackendEntry>& backends();
+
+// Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
+// this binary, or one whose hardware is absent (a CUDA backend on a machine without a GPU).
+template <class T>
+std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg);
+
+}  // namespace poisson

@@ -1,0 +1,185 @@
+// bin/poisson: one CG solve of the 2-D Poisson test problem on one backend; prints a summary, optionally appends
+// a run record (--record) and writes the solution (--solution).
+#include <omp.h>
+#ifdef HAVE_MPI
+#include <mpi.h>
+#endif
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "common/cli.hpp"
+#include "common/errors.hpp"
+#include "common/record.hpp"
+#include "common/timer.hpp"
+#include "poisson/cg.hpp"
+#include "poisson/kernels.hpp"
+
+namespace {
+
+struct Args {
+  poisson::Config cfg;
+  double tol = 1e-6;
+  long max_iter = 0;
+  std::string precision = "double";
+  std::string record_path, solution_path;
+  bool json = false;
+  bool quiet = false;
+};
+
+long default_max_iter(long n) { return std::max(1000L, 4 * n); }
+
+// Writes the N×N solution as raw little-endian float64, row j (y) after row j-1, through a temporary file and
+// rename, so a killed run leaves no half-written file.
+void write_solution(const std::string& path, const std::vector<double>& x) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(x.data()), static_cast<std::streamsize>(x.size() * sizeof(double)));
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+bool launched_by_mpirun_with_many_ranks() {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"}) {
+    const char* s = std::getenv(v);
+    if (s && std::atoi(s) > 1) return true;
+  }
+  return false;
+}
+
+template <class T>
+int solve(const Args& a) {
+  hpcgi::Timer total;
+  hpcgi::Timer t;
+  auto k = poisson::make_kernels<T>(a.cfg);
+  const double alloc_s = t.seconds();
+  const bool root = k->is_root();
+  const long max_iter = a.max_iter > 0 ? a.max_iter : default_max_iter(a.cfg.n);
+
+  hpcgi::Timer since_print;
+  auto progress = [&](long it, double rel) {
+    if (root && !a.quiet && since_print.seconds() >= 10.0) {
+      std::fprintf(stderr, "poisson: iteration %ld, relative residual %.3e\n", it, rel);
+      since_print.reset();
+    }
+  };
+  const poisson::CgResult r = poisson::run_cg(*k, a.tol, max_iter, progress);
+  const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
+  const auto info = k->info();
+  if (!root) return r.status == "breakdown" ? hpcgi::kExitNumerical : hpcgi::kExitOk;
+
+  const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
+  const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
+  const double per_iter = r.iterations > 0 ? r.solve_s / r.iterations : 0.0;
+  const double gbps = per_iter > 0 ? bytes_per_iter / per_iter / 1e9 : 0.0;
+
+  nlohmann::json rec = hpcgi::record::make("poisson");
+  rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"precision", a.precision},
+                   {"tol", a.tol},         {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
+                   {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
+  if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
+  rec["result"] = {{"status", r.status},
+                   {"converged", r.status == "converged"},
+                   {"iterations", r.iterations},
+                   {"rel_residual", r.rel_residual},
+                   {"true_rel_residual", r.true_rel_residual},
+                   {"true_residual_meets_tol", r.true_rel_residual <= a.tol},
+                   {"error_inf", r.error_inf},
+                   {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
+  if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
+  rec["times_s"] = {{"setup", alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", per_iter},
+                    {"check", r.check_s},          {"total", total.seconds()}};
+  rec["perf"] = {{"vectors_per_iteration", k->vectors_per_iteration()},
+                 {"bytes_per_iteration", bytes_per_iter},
+                 {"bandwidth_GBps", gbps},
+                 {"timer", a.cfg.backend.rfind("cu", 0) == 0 ? "host wall clock, device synchronised" : "host wall clock"}};
+  rec["backend_info"] = info;
+
+  if (!a.quiet) {
+    std::printf("poisson: N=%ld backend=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(), a.precision.c_str());
+    for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
+    std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
+                r.status.c_str(), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
+    std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %d vectors of N^2 -> %.2f GB/s)\n",
+                alloc_s + r.init_s, r.solve_s, per_iter * 1e3, k->vectors_per_iteration(), gbps);
+    if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
+    if (r.status == "converged" && r.true_rel_residual > a.tol)
+      std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
+                  "(precision %s cannot represent x more accurately)\n",
+                  r.true_rel_residual, a.tol, a.precision.c_str());
+  }
+  if (a.json) std::cout << rec.dump() << std::endl;
+  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  if (!a.solution_path.empty()) write_solution(a.solution_path, x);
+  if (r.status == "breakdown") throw hpcgi::NumericalError(r.breakdown);
+  return hpcgi::kExitOk;
+}
+
+std::string backend_help() {
+  std::string s = "Backends:\n";
+  for (const auto& b : poisson::backends()) {
+    s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary;
+    if (!b.built) s += " [NOT BUILT: " + b.why_not + "]";
+    s += "\n";
+  }
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  CLI::App app{
+      "Conjugate gradients for -Laplace(u) = f on the unit square (5-point stencil, matrix-free, u = 0 on the\n"
+      "boundary, N x N interior points, h = 1/(N+1)); test problem u = sin^2(pi x) sin^2(pi y) of Khuvis & Gobbert\n"
+      "(HPCF-2014-6). Stops when ||r||/||r0|| <= tol.",
+      "poisson"};
+  app.add_option("--n", a.cfg.n, "interior points per dimension")->check(CLI::Range(1L, 1L << 20))->capture_default_str();
+  app.add_option("--backend", a.cfg.backend, "serial | openmp | mpi | cublas1 | cublas2 | cuda")->capture_default_str();
+  app.add_option("--tol", a.tol, "relative residual tolerance")->check(hpcgi::positive_finite())->capture_default_str();
+  app.add_option("--max-iter", a.max_iter, "iteration limit (default max(1000, 4N))")->check(CLI::PositiveNumber);
+  app.add_option("--precision", a.precision, "precision of vectors and stencil (dots accumulate in double)")
+      ->check(CLI::IsMember({"double", "float"}))->capture_default_str();
+  app.add_option("--halo", a.cfg.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
+      ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
+  app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
+  app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");
+  app.add_flag("--json", a.json, "print the record on stdout");
+  app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+  app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
+             "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n");
+  int code = 0;
+  if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
+
+  return hpcgi::run_main("poisson", [&]() -> int {
+    const bool mpi = a.cfg.backend == "mpi";
+    if (!mpi && launched_by_mpirun_with_many_ranks())
+      throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
+    if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);
+    else if (mpi && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
+#ifdef HAVE_MPI
+    struct MpiSession {
+      bool on = false;
+      explicit MpiSession(bool want) {
+        if (!want) return;
+        int provided = 0;
+        MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+        on = true;
+      }
+      ~MpiSession() {
+        if (on) MPI_Finalize();
+      }
+    } session(mpi);
+#endif
+    return a.precision == "float" ? solve<float>(a) : solve<double>(a);
+  });
+}
