@@ -10,8 +10,8 @@ OPT       ?= -O3 -march=native
 PYTHON    ?= python3
 VENV      ?= .venv
 
-BUILD := build
-BIN   := bin
+BUILD ?= build
+BIN   ?= bin
 
 HAVE_MPI  := $(if $(shell command -v $(MPICXX) 2>/dev/null),1,)
 NVCC_PATH := $(shell command -v $(NVCC) 2>/dev/null)
@@ -23,19 +23,28 @@ DEFS := $(if $(HAVE_MPI),-DHAVE_MPI -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX) $(if
 CPPFLAGS += -I. -I$(BUILD)/gen $(DEFS)
 CXXFLAGS += -std=c++17 $(OPT) -fopenmp -Wall -Wextra -MMD -MP
 NVCCFLAGS ?= -O3 -std=c++17 -arch=sm_$(CUDA_ARCH) -Xcompiler -fopenmp
-LDLIBS   += $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
+LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX).
 MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp
 
-COMMON_SRC  := common/cli.cpp common/record.cpp
-POISSON_SRC := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp)
-POISSON_CU  := $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
-UNIT_SRC    := $(wildcard tests/unit/*.cpp)
+# Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
+MOD_common     := common/cli.cpp common/record.cpp
+MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
+                  $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
+MOD_scene      := $(wildcard radiosity/scene/*.cpp)
+MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
+MOD_solve      := $(wildcard radiosity/solve/*.cpp)
+SUITE_poisson    := common poisson
+SUITE_scene      := common scene
+SUITE_formfactor := common formfactor
+SUITE_solve      := common solve
+SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
-LIB_OBJ  := $(call obj,$(COMMON_SRC) $(POISSON_SRC) $(POISSON_CU))
-PROGRAMS := $(BIN)/poisson
+mods = $(call obj,$(foreach m,$(1),$(MOD_$(m))))
+UNIT_TESTS := $(patsubst %,$(BUILD)/tests/%_tests,$(SUITES))
+PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 .PHONY: all test unit pytest deps clean help FORCE
 all: $(PROGRAMS)
@@ -59,6 +68,7 @@ $(BUILD)/gen/build_info.inc: FORCE
 	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
 	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 $(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc
+unit: $(UNIT_TESTS)
 
 $(BUILD)/%.cpp.o: %.cpp
 	@mkdir -p $(@D)
@@ -68,13 +78,19 @@ $(BUILD)/%.cu.o: %.cu
 	@mkdir -p $(@D)
 	$(NVCC) -ccbin $(CXX) $(CPPFLAGS) $(NVCCFLAGS) -MMD -MP -c $< -o $@
 
-$(BIN)/poisson: $(call obj,poisson/main.cpp) $(LIB_OBJ)
+$(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BUILD)/tests/unit_tests: $(call obj,$(UNIT_SRC)) $(LIB_OBJ)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve)
 	@mkdir -p $(@D)
-	$(LINK) $(CXXFLAGS) $^ -o $@ -lgtest -lgtest_main -pthread $(LDLIBS)
+	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
+
+# One GoogleTest binary per suite: build/tests/<suite>_tests.
+.SECONDEXPANSION:
+$(BUILD)/tests/%_tests: $$(call obj,$$(wildcard tests/unit/$$*/*.cpp)) $$(call mods,$$(SUITE_$$*))
+	@mkdir -p $(@D)
+	$(LINK) $(CXXFLAGS) $^ -o $@ -lgtest_main -lgtest -pthread $(LDLIBS)
 
 deps:
 	@common/deps.sh
@@ -82,8 +98,8 @@ deps:
 # make test: install what is missing, build, run the C++ unit tests, then pytest (whose summary line is last).
 test:
 	@common/deps.sh --check || common/deps.sh
-	@$(MAKE) --no-print-directory all $(BUILD)/tests/unit_tests
-	$(BUILD)/tests/unit_tests --gtest_brief=1
+	@$(MAKE) --no-print-directory all $(UNIT_TESTS)
+	@for t in $(UNIT_TESTS); do echo "== $$t"; $$t --gtest_brief=1 || exit 1; done
 	$(VENV)/bin/python -m pytest tests
 
 clean:
