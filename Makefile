@@ -29,7 +29,7 @@ LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
-MOD_common     := common/cli.cpp common/record.cpp
+MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp
 MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
@@ -39,6 +39,7 @@ SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
 SUITE_solve      := common solve
+SUITE_common     := common
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))

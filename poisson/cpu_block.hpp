@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <string>
 
+#include "common/memory.hpp"
 #include "poisson/problem.hpp"
 
 namespace poisson {
@@ -16,7 +18,7 @@ template <class T>
 class CpuBlock {
  public:
   CpuBlock(long n, long y0, long ny)
-      : g_{n}, n_(n), y0_(y0), ny_(ny), s_(n + 2), size_((ny + 2) * (n + 2)),
+      : g_{n}, n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
         x_(new T[size_]), r_(new T[size_]), p_(new T[size_]), w_(new T[size_]), b_(new T[size_]) {
     // First touch in the loop schedule of the kernels; ghost rows and columns are zero.
 #pragma omp parallel for schedule(static)
@@ -130,6 +132,14 @@ class CpuBlock {
   }
 
  private:
+  // (ny + 2)(n + 2) values per vector; refuses a block whose 5 vectors will not fit in memory.
+  static long checked_size(long n, long ny) {
+    const long size = (ny + 2) * (n + 2);
+    hpcgi::require_host_memory("N = " + std::to_string(n) + " (" + std::to_string(ny) + " rows here)",
+                               5.0 * sizeof(T) * static_cast<double>(size));
+    return size;
+  }
+
   Grid g_;
   long n_, y0_, ny_, s_, size_;
   std::unique_ptr<T[]> x_, r_, p_, w_, b_;

@@ -2,7 +2,10 @@
 // against this one.
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
+
+#include "common/memory.hpp"
 
 #include "poisson/backends.hpp"
 
@@ -12,7 +15,8 @@ namespace {
 template <class T>
 class Serial final : public Kernels<T> {
  public:
-  explicit Serial(long n) : g_{n}, n_(n), x_(n * n), r_(n * n), p_(n * n), w_(n * n), b_(n * n) {
+  explicit Serial(long n)
+      : g_{n}, n_((hpcgi::require_host_memory("N = " + std::to_string(n), 5.0 * sizeof(T) * n * n), n)), x_(n * n), r_(n * n), p_(n * n), w_(n * n), b_(n * n) {
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) b_[j * n_ + i] = static_cast<T>(g_.b(i, j));
   }

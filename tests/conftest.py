@@ -1,0 +1,64 @@
+"""Shared helpers of the integration tests: run the real binaries from bin/ as a user would."""
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+BIN = ROOT / "bin"
+
+# OpenMPI refuses to run as root unless told; CI runs as root.
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1", "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def run(args, env=None, timeout=300, **kw):
+    """Runs a command, returns the CompletedProcess (text output)."""
+    full_env = dict(os.environ, **(env or {}))
+    return subprocess.run([str(a) for a in args], capture_output=True, text=True, timeout=timeout, env=full_env, **kw)
+
+
+def poisson(*args, np=None, timeout=300):
+    """Runs bin/poisson --json --quiet with args (under mpirun -np NP if np) and returns (process, record or None)."""
+    cmd = [BIN / "poisson", "--json", "--quiet", *args]
+    env = None
+    if np is not None:
+        cmd = ["mpirun", "-np", str(np), *cmd]
+        env = MPI_ENV
+    p = run(cmd, env=env, timeout=timeout)
+    rec = None
+    if p.returncode == 0:
+        lines = [l for l in p.stdout.splitlines() if l.startswith("{")]
+        assert len(lines) == 1, f"expected one record on stdout, got: {p.stdout!r}"
+        rec = json.loads(lines[0])
+    return p, rec
+
+
+def have_mpi():
+    return shutil.which("mpirun") is not None and "mpi" in built_backends()
+
+
+def built_backends():
+    """Backends bin/poisson was built with (from its --help)."""
+    out = run([BIN / "poisson", "--help"]).stdout
+    section = out.split("Backends:")[1].split("Examples:")[0]
+    return {line.split()[0] for line in section.strip().splitlines() if "NOT BUILT" not in line}
+
+
+def gpu_absent_reason():
+    """None when a CUDA backend can run here, else the reason (printed in the skip message)."""
+    if "cuda" not in built_backends():
+        return "bin/poisson was built without CUDA (no nvcc)"
+    p = run([BIN / "poisson", "--backend", "cuda", "--n", "4", "--quiet"])
+    if p.returncode == 2 and "needs an NVIDIA GPU" in p.stderr:
+        return "no NVIDIA GPU on this machine: " + p.stderr.strip()
+    return None
+
+
+@pytest.fixture(scope="session")
+def requires_gpu():
+    reason = gpu_absent_reason()
+    if reason:
+        pytest.skip(reason)
