@@ -47,7 +47,9 @@ mods = $(call obj,$(foreach m,$(1),$(MOD_$(m))))
 UNIT_TESTS := $(patsubst %,$(BUILD)/tests/%_tests,$(SUITES))
 PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
-.PHONY: all test unit pytest deps clean help FORCE
+PRESET ?= quick
+EXPERIMENTS ?= table41
+.PHONY: all test unit deps clean help reproduce plots FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
 	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: no '$(NVCC)' on PATH (set NVCC=...); backends cublas1, cublas2, cuda are not built")
@@ -56,6 +58,8 @@ help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
+	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make plots"
+	@echo "make plots      tables (results/tables) and plots (results/plots) from the records"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV"
 
@@ -102,6 +106,16 @@ test:
 	@$(MAKE) --no-print-directory all $(UNIT_TESTS)
 	@for t in $(UNIT_TESTS); do echo "== $$t"; $$t --gtest_brief=1 || exit 1; done
 	$(VENV)/bin/python -m pytest tests
+
+# The study: the same case lists the Slurm job scripts use, run locally (slurm/run-local), then the tables.
+reproduce:
+	@common/deps.sh --check || common/deps.sh
+	@$(MAKE) --no-print-directory all
+	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS)
+	@$(MAKE) --no-print-directory plots
+
+plots:
+	$(VENV)/bin/python -m analysis $(PRESET)
 
 clean:
 	rm -rf $(BUILD) $(BIN)
