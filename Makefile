@@ -35,11 +35,13 @@ MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(i
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
 MOD_solve      := $(wildcard radiosity/solve/*.cpp)
+MOD_render     := $(wildcard radiosity/render/*.cpp)
 SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
 SUITE_solve      := common solve
 SUITE_common     := common
+SUITE_render     := common render
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
@@ -87,7 +89,7 @@ $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
