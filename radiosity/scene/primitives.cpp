@@ -39,7 +39,7 @@ std::vector<Triangle> unit_barrel() {
   for (int i = 1; i <= kSegments; ++i) {
     const Vec3 t0 = top(i - 1), t1 = top(i);
     const Vec3 b0{t0.x, -0.5, t0.z}, b1{t1.x, -0.5, t1.z};
-    add_quad(t, t0, t1, b1, b0);          // side
+    add_quad(t, t0, t1, b1, b0);           // side
     t.push_back({t1, t0, top_centre});     // top cap
     t.push_back({b0, b1, bottom_centre});  // bottom cap
   }

@@ -25,7 +25,9 @@ class Transform {
   Vec3 apply(const Vec3& p) const;
 
  private:
-  Transform times(const double r[3][4]) const;  // *this · r, both affine (last row 0 0 0 1)
+  // The rotation by `angle` (radians) that turns coordinate axis `from` towards axis `to`.
+  static Transform plane_rotation(int from, int to, double angle);
+  Transform times(const Transform& r) const;  // *this · r
   double m_[3][4];
 };
 

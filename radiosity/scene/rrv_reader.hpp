@@ -1,0 +1,30 @@
+// Loads a scene in RRV's XML format (see shared/scenes/FORMAT.md) into the shared Mesh: objectdefs in the head,
+// instantiated in the body under nested translate/scale/rotate/shear, triangle strips and the primitives cuboid,
+// barrel, globe and teapot, then every triangle subdivided to the maximum patch area like RRV's --divide.
+// Patch order is RRV's: entities in the order the body instantiates them, breadth-first within an entity; one
+// entity per triangleset or primitive instance, named by its `name` attribute or else "<objectdef>/<element>".
+// Bad input throws hpcgi::UsageError with one line "<file>:<line>: <what>".
+#pragma once
+#include <string>
+
+#include "radiosity/mesh.hpp"
+
+namespace radiosity {
+
+struct LoadOptions {
+  double divide = 1.0;  // maximum patch area (RRV's --divide); must be > 0
+  // ρ >= 1 in any channel is refused unless this is set: such a surface reflects all the light it receives, so
+  // I - diag(ρ)F loses diagonal dominance and a closed scene has no unique solution. RRV's room3.xml has one.
+  bool allow_reflectivity_ge_1 = false;
+  // Where teapot.obj (the teapot primitive's geometry) is looked for first; empty means the scene file's folder.
+  // $RRV_SCENES is looked in second.
+  std::string primitive_dir;
+};
+
+Mesh load_rrv_scene(const std::string& path, const LoadOptions& opt = {});
+
+// The same from XML text; `origin` names it in messages. The teapot is looked for in opt.primitive_dir (if set),
+// then $RRV_SCENES.
+Mesh load_rrv_scene_string(const std::string& xml, const LoadOptions& opt = {}, const std::string& origin = "<string>");
+
+}  // namespace radiosity

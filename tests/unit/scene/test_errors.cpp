@@ -1,0 +1,159 @@
+// Bad input is refused with one line that says what is wrong and where (<file>:<line>), never loaded.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "radiosity/scene/rrv_reader.hpp"
+#include "scene_test_util.hpp"
+
+using radiosity::LoadOptions;
+using scene_test::expect_refused;
+
+namespace {
+
+// The scene text puts the element under test on line 4 (head on 2, objectdef on 3).
+std::string in_objectdef(const std::string& line4) {
+  return "<scene>\n<head>\n<objectdef name='o'>\n" + line4 +
+         "\n</objectdef>\n</head>\n"
+         "<body><object name='o'/></body>\n</scene>\n";
+}
+
+const std::string kTriangle =
+    "<triangle><vertex x='0' y='0' z='0'/><vertex x='1' y='0' z='0'/>"
+    "<vertex x='0' y='1' z='0'/></triangle>";
+
+void refused(const std::string& xml, const std::vector<std::string>& parts, const LoadOptions& opt = {}) {
+  expect_refused([&] { radiosity::load_rrv_scene_string(xml, opt); }, parts);
+}
+
+}  // namespace
+
+TEST(Errors, MalformedXmlNamesFileAndLine) {
+  scene_test::TempDir tmp;
+  const std::string path = (tmp.path() / "broken.xml").string();
+  std::ofstream(path) << "<scene>\n<head>\n<objectdef name='o'>\n<cuboid>\n</objectdef>\n</head>\n</scene>\n";
+  expect_refused([&] { radiosity::load_rrv_scene(path); }, {path + ":5:", "malformed XML"});
+}
+
+TEST(Errors, MissingFile) {
+  expect_refused([] { radiosity::load_rrv_scene("/nonexistent/scene.xml"); }, {"/nonexistent/scene.xml"});
+}
+
+TEST(Errors, UnknownElements) {
+  refused("<scene>\n<body>\n<translate dx='1'>\n<spin angle='3'/>\n</translate>\n</body>\n</scene>",
+          {"<string>:4:", "unknown element <spin>"});
+  refused(in_objectdef("<triangleset>" + kTriangle + "<polygon n='5'/></triangleset>"),
+          {"<string>:4:", "unknown element <polygon>"});
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='0' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "<triangle> needs exactly 3 <vertex>"});
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='0' z='0'/><vertex x='1' y='0' z='0'/><vertx/>"
+                       "</triangle></triangleset>"),
+          {"<string>:4:", "unknown element <vertx>"});
+  refused("<scene>\n<head/>\n<tail/>\n</scene>", {"<string>:3:", "unknown element <tail>"});
+  refused("<scene>\n<body>hello</body>\n</scene>", {"<string>:2:", "unexpected text"});
+}
+
+TEST(Errors, UnknownPrimitive) { refused(in_objectdef("<pyramid/>"), {"<string>:4:", "unknown primitive <pyramid>"}); }
+
+TEST(Errors, UnknownAttribute) {
+  // A misspelt colour would otherwise read as black.
+  refused(in_objectdef("<cuboid reflectivty='.5,.5,.5'/>"), {"<string>:4:", "unknown attribute 'reflectivty'"});
+}
+
+TEST(Errors, ObjectNamingAnUndefinedObjectdef) {
+  refused(
+      "<scene>\n<head><objectdef name='a'><cuboid/></objectdef></head>\n<body>\n<object name='b'/>\n</body>\n</scene>",
+      {"<string>:4:", "'b'", "objectdef"});
+}
+
+TEST(Errors, VertexCoordinates) {
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='0'/><vertex x='1' y='0' z='0'/>"
+                       "<vertex x='0' y='1' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "'z'"});
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='zero' z='0'/><vertex x='1' y='0' z='0'/>"
+                       "<vertex x='0' y='1' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "'y'", "not a number", "zero"});
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='inf' z='0'/><vertex x='1' y='0' z='0'/>"
+                       "<vertex x='0' y='1' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "not finite"});
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='1e999' z='0'/><vertex x='1' y='0' z='0'/>"
+                       "<vertex x='0' y='1' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "out of range"});
+}
+
+TEST(Errors, Colours) {
+  refused(in_objectdef("<cuboid emission='nan,1,1'/>"), {"<string>:4:", "'emission'", "not finite"});
+  refused(in_objectdef("<cuboid emission='inf,1,1'/>"), {"<string>:4:", "not finite"});
+  refused(in_objectdef("<cuboid radiosity='1,-0.5,1'/>"), {"<string>:4:", "'radiosity'", "negative"});
+  refused(in_objectdef("<cuboid reflectivity='.5,.5'/>"), {"<string>:4:", "three numbers"});
+  refused(in_objectdef("<cuboid reflectivity='.5,.5,.5,.5'/>"), {"<string>:4:", "three numbers"});
+  refused(in_objectdef("<cuboid reflectivity='.5,x,.5'/>"), {"<string>:4:", "three numbers"});
+}
+
+TEST(Errors, ReflectivityOfOneOrMoreUnlessAllowed) {
+  refused(in_objectdef("<cuboid reflectivity='.5,1,.5'/>"), {"<string>:4:", "--allow-reflectivity-ge-1"});
+  refused(in_objectdef("<triangleset reflectivity='.5,.5,.5'><triangle reflectivity='1.5,0,0'>"
+                       "<vertex x='0' y='0' z='0'/><vertex x='1' y='0' z='0'/><vertex x='0' y='1' z='0'/>"
+                       "</triangle></triangleset>"),
+          {"<string>:4:", "--allow-reflectivity-ge-1"});
+  LoadOptions allow;
+  allow.allow_reflectivity_ge_1 = true;
+  const radiosity::Mesh m = radiosity::load_rrv_scene_string(in_objectdef("<cuboid reflectivity='.5,1,.5'/>"), allow);
+  EXPECT_EQ(m.patches[0].reflectivity, (radiosity::Rgb{.5, 1, .5}));
+}
+
+TEST(Errors, DegenerateTriangles) {
+  // Collinear vertices, and a repeated vertex through a strip: the place is the element that made it.
+  refused(in_objectdef("<triangleset>\n<triangle><vertex x='0' y='0' z='0'/><vertex x='1' y='1' z='1'/>"
+                       "<vertex x='2' y='2' z='2'/></triangle></triangleset>"),
+          {"<string>:5:", "degenerate triangle"});
+  refused(in_objectdef("<triangleset>\n" + kTriangle +
+                       "\n<trianglenext><vertex x='1' y='0' z='0'/></trianglenext>"
+                       "</triangleset>"),
+          {"<string>:6:", "degenerate triangle"});
+  // A scale that names one axis collapses the other two (RRV's default 0): every triangle of the cube loses its area.
+  refused(
+      "<scene>\n<head><objectdef name='c'>\n<cuboid/>\n</objectdef></head>\n<body>\n<scale dx='2'>\n"
+      "<object name='c'/>\n</scale></body></scene>",
+      {"<string>:3:", "zero area", "line 7"});
+}
+
+TEST(Errors, StripsAndTransforms) {
+  refused(in_objectdef("<triangleset><trianglenext><vertex x='0' y='0' z='0'/></trianglenext></triangleset>"),
+          {"<string>:4:", "must follow a <triangle>"});
+  refused(
+      "<scene>\n<head><objectdef name='c'><cuboid/></objectdef></head>\n<body>\n<rotate angle='30'>"
+      "<object name='c'/></rotate></body></scene>",
+      {"<string>:4:", "non-zero axis"});
+  refused(
+      "<scene>\n<head><objectdef name='c'><cuboid/></objectdef></head>\n<body>\n<rotate dy='1'>"
+      "<object name='c'/></rotate></body></scene>",
+      {"<string>:4:", "'angle'"});
+  refused(
+      "<scene>\n<head><objectdef name='c'><cuboid/></objectdef></head>\n<body>\n<translate dx='1m'>"
+      "<object name='c'/></translate></body></scene>",
+      {"<string>:4:", "'dx'", "not a number"});
+}
+
+TEST(Errors, ObjectdefsAndEmptyScenes) {
+  refused(
+      "<scene>\n<head>\n<objectdef name='a'><cuboid/></objectdef>\n<objectdef name='a'><globe/></objectdef>\n"
+      "</head></scene>",
+      {"<string>:4:", "defined twice"});
+  refused("<scene><head><objectdef name='a'><cuboid/></objectdef></head><body/></scene>", {"no triangles"});
+  refused("<world/>", {"<string>:1:", "<scene>"});
+}
+
+TEST(Errors, DivideMustBePositive) {
+  LoadOptions opt;
+  opt.divide = 0;
+  refused(in_objectdef("<cuboid/>"), {"--divide"}, opt);
+}
+
+TEST(Errors, TeapotWithoutTeapotObj) {
+  scene_test::TempDir empty;
+  scene_test::EnvGuard no_env("RRV_SCENES", nullptr);
+  LoadOptions opt;
+  opt.primitive_dir = empty.path().string();
+  refused(in_objectdef("<teapot/>"), {"<string>:4:", "teapot.obj", empty.path().string(), "RRV_SCENES"}, opt);
+}
