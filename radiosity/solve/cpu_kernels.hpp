@@ -1,0 +1,68 @@
+// Kernels on the host: the linear algebra of linalg.hpp on vectors of one layout, rows shared out by one
+// execution façade. The serial and openmp backends are this class with SerialExec and OpenMPExec.
+#pragma once
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "radiosity/solve/kernels.hpp"
+#include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/system.hpp"
+
+namespace radiosity {
+
+template <class T, template <class> class Layout, class Exec>
+class CpuKernels final : public Kernels<T> {
+  using V = Layout<T>;
+
+ public:
+  CpuKernels(const System& sys, int vectors, Exec ex)
+      : ex_(std::move(ex)), n_(sys.n), F_(sys.F), rho_(sys.n), e_(sys.n) {
+    load(rho_, sys.reflectivity);
+    load(e_, sys.emission);
+    vec_.reserve(vectors);
+    for (int k = 0; k < vectors; ++k) {
+      vec_.emplace_back(n_);
+      V& v = vec_.back();
+      ex_.rows(n_, [&](size_t i0, size_t i1) {  // first touch by the thread that will own these rows
+        for (size_t i = i0; i < i1; ++i)
+          for (int c = 0; c < 3; ++c) v(i, c) = 0;
+      });
+    }
+  }
+
+  void upload(int v, const std::vector<Rgb>& x) override { load(vec_.at(v), x); }
+  void download(int v, std::vector<Rgb>& x) override {
+    const V& src = vec_.at(v);
+    x.resize(n_);
+    ex_.rows(n_, [&](size_t i0, size_t i1) {
+      for (size_t i = i0; i < i1; ++i)
+        for (int c = 0; c < 3; ++c) x[i][c] = src(i, c);
+    });
+  }
+  void matvec(int y, int x, double a, double c, double d) override {
+    affine_matvec(ex_, F_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d));
+  }
+  Rgb dot(int x, int y) override { return radiosity::dot(ex_, vec_.at(x), vec_.at(y)); }
+  Rgb dist2(int x, int y) override { return radiosity::dist2(ex_, vec_.at(x), vec_.at(y)); }
+  void axpby(int y, const Rgb& a, int x, const Rgb& b) override { radiosity::axpby(ex_, vec_.at(y), a, vec_.at(x), b); }
+  void copy(int y, int x) override { radiosity::copy(ex_, vec_.at(y), vec_.at(x)); }
+  int threads() const override { return ex_.threads(); }
+  double matrix_bytes() const override { return 4.0 * double(n_) * double(n_); }
+
+ private:
+  void load(V& dst, const std::vector<Rgb>& src) {
+    ex_.rows(n_, [&](size_t i0, size_t i1) {
+      for (size_t i = i0; i < i1; ++i)
+        for (int c = 0; c < 3; ++c) dst(i, c) = T(src[i][c]);
+    });
+  }
+
+  Exec ex_;
+  size_t n_;
+  const float* F_;
+  V rho_, e_;
+  std::vector<V> vec_;
+};
+
+}  // namespace radiosity

@@ -1,0 +1,77 @@
+// How a kernel's rows are shared out, one façade for both CPU backends (pbrt-v4's ParallelFor): SerialExec runs
+// all rows in one call; OpenMPExec gives each thread one contiguous block (OpenMP's static schedule) whose edges
+// fall on multiples of kRowAlign rows. A kernel body takes a row range [begin, end); a reduction body returns its
+// partial sums per channel.
+#pragma once
+#include <omp.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+#include "radiosity/solve/layout.hpp"
+
+namespace radiosity {
+
+// Thread t's rows of [0, n) out of nt threads.
+inline std::pair<size_t, size_t> static_block(size_t n, int t, int nt) {
+  const size_t blocks = (n + kRowAlign - 1) / kRowAlign;
+  const size_t b0 = blocks * t / nt, b1 = blocks * (t + 1) / nt;
+  return {std::min(n, b0 * kRowAlign), std::min(n, b1 * kRowAlign)};
+}
+
+struct SerialExec {
+  int threads() const { return 1; }
+  template <class Body>
+  void rows(size_t n, Body&& body) const {
+    body(size_t{0}, n);
+  }
+  template <class Body>
+  Rgb reduce(size_t n, Body&& body) const {
+    return body(size_t{0}, n);
+  }
+};
+
+class OpenMPExec {
+ public:
+  // threads = 0: the OpenMP default (OMP_NUM_THREADS or all cores).
+  explicit OpenMPExec(int threads) : threads_(threads > 0 ? threads : omp_get_max_threads()), partial_(threads_) {}
+  int threads() const { return threads_; }
+
+  template <class Body>
+  void rows(size_t n, Body&& body) const {
+#pragma omp parallel num_threads(threads_)
+    {
+      const auto [b, e] = static_block(n, omp_get_thread_num(), omp_get_num_threads());
+      body(b, e);
+    }
+  }
+
+  // Partial sums land in one cache line per thread and are added in thread order after the region, so a run
+  // gives the same bits every time for a given thread count (a `reduction` clause adds in any order).
+  template <class Body>
+  Rgb reduce(size_t n, Body&& body) const {
+    for (Partial& p : partial_) p.v = {0, 0, 0};
+#pragma omp parallel num_threads(threads_)
+    {
+      const int t = omp_get_thread_num();
+      const auto [b, e] = static_block(n, t, omp_get_num_threads());
+      partial_[t].v = body(b, e);
+    }
+    Rgb s{0, 0, 0};
+    for (const Partial& p : partial_)
+      for (int c = 0; c < 3; ++c) s[c] += p.v[c];
+    return s;
+  }
+
+ private:
+  struct alignas(kCacheLine) Partial {
+    Rgb v;
+  };
+  int threads_;
+  mutable std::vector<Partial> partial_;
+};
+
+}  // namespace radiosity

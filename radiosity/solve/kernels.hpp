@@ -1,0 +1,28 @@
+// The contract of a backend that runs the shared methods (after TeaLeaf and BabelStream's Stream.h): it holds
+// the system (F, ρ, E) and a few vectors in its own memory and layout, named by slot number, and supplies the
+// operations Jacobi and BiCG-STAB are written in. Scalars cross the interface in double, one per channel.
+// A future GPU, hybrid or MPI backend implements this class in its own file; the methods do not change.
+#pragma once
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+
+namespace radiosity {
+
+template <class T>
+class Kernels {
+ public:
+  virtual ~Kernels() = default;
+  virtual void upload(int v, const std::vector<Rgb>& x) = 0;   // host -> slot v (converted to T)
+  virtual void download(int v, std::vector<Rgb>& x) = 0;       // slot v -> host (x is resized)
+  // y = a·x + c·ρ ⊙ (F x) + d·e: the one pass over F (see linalg.hpp). y != x.
+  virtual void matvec(int y, int x, double a, double c, double d) = 0;
+  virtual Rgb dot(int x, int y) = 0;                             // Σ x·y per channel
+  virtual Rgb dist2(int x, int y) = 0;                           // Σ (x - y)² per channel
+  virtual void axpby(int y, const Rgb& a, int x, const Rgb& b) = 0;  // y = a ⊙ x + b ⊙ y
+  virtual void copy(int y, int x) = 0;
+  virtual int threads() const = 0;
+  virtual double matrix_bytes() const = 0;  // bytes one matvec reads from the matrix
+};
+
+}  // namespace radiosity

@@ -1,0 +1,18 @@
+// Backend `openmp`: the shared kernels with OpenMP threads over rows, static blocks aligned to cache lines
+// (report §3.8.2: only the linear algebra is threaded; F is shared, never copied).
+#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/cpu_kernels.hpp"
+#include "radiosity/solve/exec.hpp"
+
+namespace radiosity {
+
+template <class T>
+std::unique_ptr<Kernels<T>> make_openmp(const System& sys, const SolveConfig& cfg, int vectors) {
+  const OpenMPExec ex(cfg.threads);
+  if (cfg.layout == "soa") return std::make_unique<CpuKernels<T, Soa, OpenMPExec>>(sys, vectors, ex);
+  return std::make_unique<CpuKernels<T, Aos, OpenMPExec>>(sys, vectors, ex);
+}
+template std::unique_ptr<Kernels<float>> make_openmp(const System&, const SolveConfig&, int);
+template std::unique_ptr<Kernels<double>> make_openmp(const System&, const SolveConfig&, int);
+
+}  // namespace radiosity

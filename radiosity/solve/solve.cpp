@@ -1,0 +1,124 @@
+// The registry of backends and the driver: check the request, build the backend, run the method, check the answer.
+#include "radiosity/solve/solve.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/errors.hpp"
+#include "common/timer.hpp"
+#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/methods.hpp"
+
+namespace radiosity {
+namespace {
+
+template <class T>
+SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConfig& cfg,
+                       const IterationCallback& callback) {
+  SolveResult res;
+  const bool jac = cfg.method == "jacobi";
+  hpcgi::Timer t;
+  auto k = make(sys, cfg, jac ? kJacobiVectors : kBicgstabVectors);
+  k->upload(0, sys.initial);
+  res.setup_s = t.seconds();
+
+  t.reset();
+  const Rgb scale = residual_scale(sys);
+  const MethodRun run = jac ? jacobi<T>(*k, scale, cfg, callback) : bicgstab<T>(*k, scale, cfg, callback);
+  res.solve_s = t.seconds() - run.callback_s;
+
+  t.reset();
+  k->download(run.answer, res.B);
+  res.rel_residual = relative_residual(sys, res.B);
+  res.check_s = t.seconds();
+  res.iterations = run.iterations;
+  res.status = run.status;
+  res.detail = run.detail;
+  res.matrix_passes = run.matrix_passes;
+  res.matrix_bytes = k->matrix_bytes();
+  res.threads = k->threads();
+  return res;
+}
+
+// A backend that supplies kernels: the shared methods run on it, in the precision asked.
+template <KernelFactory<float> MakeFloat, KernelFactory<double> MakeDouble>
+SolveResult run_kernels(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
+  return cfg.precision == "double" ? run_method<double>(MakeDouble, sys, cfg, callback)
+                                   : run_method<float>(MakeFloat, sys, cfg, callback);
+}
+
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const std::string& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+bool has(const std::vector<std::string>& v, const std::string& x) { return std::find(v.begin(), v.end(), x) != v.end(); }
+
+// `what` must be one of `known`, and one of `supported` by the backend.
+void check_choice(const std::string& what, const std::string& value, const std::vector<std::string>& known,
+                  const SolveBackend& b, const std::vector<std::string>& supported) {
+  if (!has(known, value)) throw hpcgi::UsageError("unknown " + what + " '" + value + "' (known: " + joined(known) + ")");
+  if (!has(supported, value))
+    throw hpcgi::UsageError("backend '" + b.name + "' does not run " + what + " '" + value + "' (it runs " +
+                            joined(supported) + ")");
+}
+
+}  // namespace
+
+const char* to_string(SolveStatus s) {
+  switch (s) {
+    case SolveStatus::converged: return "converged";
+    case SolveStatus::max_iter: return "max_iter";
+    case SolveStatus::steps_done: return "steps_done";
+    case SolveStatus::breakdown: return "breakdown";
+    case SolveStatus::nonfinite: return "nonfinite";
+  }
+  return "unknown";
+}
+
+const std::vector<SolveBackend>& solve_backends() {
+  static const std::vector<SolveBackend> list = {
+      {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
+       {"jacobi"}, {"aos"}, {"float"}, false, true, "", run_original},
+      {"serial", "dense kernels written once for both layouts, one thread",
+       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+       run_kernels<make_serial<float>, make_serial<double>>},
+      {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines",
+       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+       run_kernels<make_openmp<float>, make_openmp<double>>},
+  };
+  return list;
+}
+
+SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
+  check_system(sys);
+  const SolveBackend* b = nullptr;
+  std::vector<std::string> names;
+  for (const SolveBackend& x : solve_backends()) {
+    names.push_back(x.name);
+    if (x.name == cfg.backend) b = &x;
+  }
+  if (!b) throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
+  if (!b->built) throw hpcgi::UsageError("solver backend '" + b->name + "' is not available: " + b->why_not);
+  check_choice("method", cfg.method, {"jacobi", "bicgstab"}, *b, b->methods);
+  check_choice("layout", cfg.layout, {"aos", "soa"}, *b, b->layouts);
+  check_choice("precision", cfg.precision, {"float", "double"}, *b, b->precisions);
+  if (cfg.steps < 0) throw hpcgi::UsageError("steps must be >= 0 (0: stop on the tolerance)");
+  if (cfg.steps > 0 && cfg.method != "jacobi")
+    throw hpcgi::UsageError("a fixed step count is for jacobi; " + cfg.method + " stops on the tolerance (steps = 0)");
+  if (cfg.steps == 0) {
+    if (!b->tolerance)
+      throw hpcgi::UsageError("backend '" + b->name + "' runs a fixed number of steps (RRV has no tolerance); " +
+                              "give steps (RRV's default is 32)");
+    if (!(cfg.tol > 0 && std::isfinite(cfg.tol))) throw hpcgi::UsageError("tol must be a positive number");
+    if (cfg.max_iter < 1) throw hpcgi::UsageError("max_iter must be >= 1");
+  }
+  if (cfg.threads < 0) throw hpcgi::UsageError("threads must be >= 0 (0: the OpenMP default)");
+  if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
+  if (cfg.ff_threshold != 0 && b->name != "original")
+    throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
+  return b->run(sys, cfg, callback);
+}
+
+}  // namespace radiosity

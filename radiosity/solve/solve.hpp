@@ -1,0 +1,75 @@
+// The radiosity solver's one entry point: solve(system, config, callback) runs one method (jacobi | bicgstab) in
+// one layout (aos | soa), one backend and one working precision, and says how it went.
+//
+// Backends are a registry (solve_backends): one file per backend, one line in solve.cpp. A backend either supplies
+// the kernels of kernels.hpp (then Jacobi and BiCG-STAB, written once, run on it) or its own loop (`original`).
+// Combinations a backend does not run are refused with hpcgi::UsageError before anything is computed.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+#include "radiosity/solve/system.hpp"
+
+namespace radiosity {
+
+struct SolveConfig {
+  std::string method = "jacobi";    // jacobi | bicgstab
+  std::string layout = "aos";       // aos | soa
+  std::string backend = "openmp";   // a name from solve_backends()
+  std::string precision = "float";  // float | double: the working precision of B (F is always float32)
+  long steps = 0;                   // > 0: exactly this many Jacobi steps, no tolerance (RRV's default is 32)
+  double tol = 1e-6;                // steps == 0: stop when every channel's relative residual is <= tol
+  long max_iter = 1000;             // steps == 0: give up after this many iterations
+  int threads = 0;                  // openmp: 0 = the OpenMP default; the single-threaded backends ignore it
+  float ff_threshold = 0;           // original: keep only F_ij > threshold (RRV's ffTreshold); other backends: 0
+};
+
+enum class SolveStatus {
+  converged,   // every channel's residual <= tol (as the method measures it, in the working precision)
+  max_iter,    // max_iter iterations without reaching tol
+  steps_done,  // the fixed number of steps ran
+  breakdown,   // BiCG-STAB: ρ = r̂·r, r̂·v or ω ≈ 0 (detail says which, where)
+  nonfinite,   // a NaN or Inf in the iterates (or in the input)
+};
+const char* to_string(SolveStatus s);
+
+struct SolveResult {
+  std::vector<Rgb> B;             // the radiosity the run ends with (double, whatever the working precision)
+  long iterations = 0;            // Jacobi steps or BiCG-STAB iterations that produced B
+  Rgb rel_residual{0, 0, 0};      // relative_residual(system, B): recomputed in double, same for every backend
+  SolveStatus status = SolveStatus::max_iter;
+  std::string detail;             // why a breakdown or nonfinite status, empty otherwise
+  long matrix_passes = 0;         // passes over the matrix during the solve (Jacobi 1/step, BiCG-STAB 2/iteration
+                                  //   plus 1 per residual recomputation)
+  double matrix_bytes = 0;        // bytes one pass reads: 4n² dense, the (pointer, float) pairs for `original`
+  int threads = 1;
+  double setup_s = 0;             // building the backend's data and loading B0
+  double solve_s = 0;             // the iterations, without the time spent in the callback
+  double check_s = 0;             // fetching B and recomputing the residual
+};
+
+// Called after every iteration k = 1, 2, ... with the radiosity B_k (report Figure 4.2: snapshots after 1, 2, 4,
+// 8, 32 iterations). Its time is not counted in solve_s.
+using IterationCallback = std::function<void(long iteration, const std::vector<Rgb>& B)>;
+
+using BackendRun = SolveResult (*)(const System&, const SolveConfig&, const IterationCallback&);
+
+struct SolveBackend {
+  std::string name;
+  std::string summary;
+  std::vector<std::string> methods, layouts, precisions;  // what it runs
+  bool tolerance;     // whether it can stop on a tolerance (false: fixed steps only)
+  bool built;         // compiled into this binary
+  std::string why_not;
+  BackendRun run;
+};
+const std::vector<SolveBackend>& solve_backends();
+
+// Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
+// precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the
+// status (breakdown, nonfinite) for the caller to turn into exit status 3.
+SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback = nullptr);
+
+}  // namespace radiosity

@@ -1,0 +1,37 @@
+// The linear system every solver takes (report eqs. 2.3-2.6): B = E + ρ ⊙ (F B) per colour channel c, that is
+// A_c b_c = e_c with A_c = I - diag(ρ_c) F. The form-factor matrix F is shared by the three channels.
+#pragma once
+#include <cstddef>
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+
+namespace radiosity {
+
+struct System {
+  size_t n = 0;
+  const float* F = nullptr;        // n×n row-major, F[i*n + j], F_ii = 0; not owned (it comes from the form-factor file)
+  std::vector<Rgb> emission;       // E, n entries
+  std::vector<Rgb> reflectivity;   // ρ, n entries
+  std::vector<Rgb> initial;        // B0, n entries (RRV: rrv_initial_radiosity)
+};
+
+// RRV's starting radiosity: B0 = max(radiosity attribute, emission), channel by channel.
+std::vector<Rgb> rrv_initial_radiosity(const std::vector<Rgb>& attribute, const std::vector<Rgb>& emission);
+
+// The system of a mesh whose form factors are F (n = mesh.size()), starting from RRV's B0.
+System make_system(const Mesh& mesh, const float* F);
+
+// Throws hpcgi::UsageError if the sizes disagree, F is missing or there are no patches. Values are not checked:
+// a NaN in the input is the solver's to report (status nonfinite), not a usage error.
+void check_system(const System& sys);
+
+// The denominator of the relative residual per channel: ‖e_c‖₂, or 1 where e_c = 0. A channel without emission
+// has the solution b_c = 0 and no scale of its own, so its residual is measured absolutely: ‖A_c b_c‖₂ ≤ tol.
+Rgb residual_scale(const System& sys);
+
+// ‖e_c - A_c b_c‖₂ / residual_scale_c per channel, computed in double from B whatever precision produced it (the
+// independent check every backend's answer gets; OpenMP threads over rows).
+Rgb relative_residual(const System& sys, const std::vector<Rgb>& B);
+
+}  // namespace radiosity
