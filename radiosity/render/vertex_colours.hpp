@@ -1,0 +1,20 @@
+// Radiosity per patch corner for smooth (Gouraud) shading: a radiosity solution is constant per patch, and drawn
+// that way it shows every patch edge. Like RRV's visualizer, each corner takes instead the area-weighted average of
+// the patches that meet at that point, so neighbouring patches blend into each other.
+#pragma once
+#include <array>
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+
+namespace radiosity {
+
+// Corner k of patch i gets sum(A_j B_j) / sum(A_j) over the patches j that have a vertex at the same position
+// (within about 1e-9 of the largest coordinate) and face within crease_deg of patch i's direction. The crease keeps
+// the corners of a room sharp: with crease_deg = 180 a floor corner would take the colour of both walls. Patches
+// facing opposite ways (the two sides of a thin wall) never blend unless crease_deg = 180.
+// radiosity has one entry per patch.
+std::vector<std::array<Rgb, 3>> smooth_vertex_colours(const Mesh& m, const std::vector<Rgb>& radiosity,
+                                                      double crease_deg);
+
+}  // namespace radiosity
