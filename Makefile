@@ -36,6 +36,7 @@ MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
 MOD_solve      := $(wildcard radiosity/solve/*.cpp)
 MOD_render     := $(wildcard radiosity/render/*.cpp)
+MOD_app        := $(wildcard radiosity/app/*.cpp)
 SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
@@ -89,7 +90,7 @@ $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 

@@ -1,0 +1,50 @@
+// The subcommands of bin/radiosity: their options (CLI11) and what they run. One file per subcommand.
+#pragma once
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+#include "radiosity/formfactor/form_factors.hpp"
+#include "radiosity/scene/rrv_reader.hpp"
+#include "radiosity/solve/solve.hpp"
+
+namespace radiosity::app {
+
+// What every subcommand that reads a scene shares.
+struct SceneArgs {
+  std::string scene;
+  LoadOptions load;
+  int threads = 0;
+  std::string record_path;
+  bool json = false;
+  bool quiet = false;
+};
+void add_scene_options(CLI::App* cmd, SceneArgs& a);
+// Loads and subdivides the scene (sets the thread count first); prints nothing.
+Mesh load_scene(const SceneArgs& a, double* seconds);
+
+struct InfoArgs : SceneArgs {};
+void add_info(CLI::App& app, InfoArgs& a);
+int run_info(const InfoArgs& a);
+
+struct FormFactorArgs : SceneArgs {
+  std::string out;
+  HemicubeParams hemicube;
+  std::string weights = "exact";
+};
+void add_formfactors(CLI::App& app, FormFactorArgs& a);
+int run_formfactors(const FormFactorArgs& a);
+
+struct SolveArgs : SceneArgs {
+  std::string ff;
+  SolveConfig cfg;
+  std::string output_xml, png, view = "auto", size = "800x600";
+  double exposure = 1;
+  std::vector<long> snapshots;
+  std::string snapshot_prefix;
+  bool verify = true;
+};
+void add_solve(CLI::App& app, SolveArgs& a);
+int run_solve(const SolveArgs& a);
+
+}  // namespace radiosity::app

@@ -1,0 +1,79 @@
+// Options every scene-reading subcommand shares, and `info`.
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+
+#include "common/cli.hpp"
+#include "common/errors.hpp"
+#include "common/record.hpp"
+#include "common/timer.hpp"
+#include "radiosity/app/commands.hpp"
+
+namespace radiosity::app {
+
+void add_scene_options(CLI::App* cmd, SceneArgs& a) {
+  cmd->add_option("scene", a.scene, "scene in RRV's XML format")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--divide", a.load.divide, "maximum patch area: larger triangles are split in four (RRV's rule)")
+      ->check(hpcgi::positive_finite())->capture_default_str();
+  cmd->add_flag("--allow-reflectivity-ge-1", a.load.allow_reflectivity_ge_1,
+                "accept reflectivity >= 1 in a channel (RRV's room3.xml has lossless bulb barrels)");
+  cmd->add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::Range(1, 4096));
+  cmd->add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
+  cmd->add_flag("--json", a.json, "print the record on stdout");
+  cmd->add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+}
+
+Mesh load_scene(const SceneArgs& a, double* seconds) {
+  if (a.threads > 0) omp_set_num_threads(a.threads);
+  hpcgi::Timer t;
+  Mesh m = load_rrv_scene(a.scene, a.load);
+  if (m.size() == 0) throw hpcgi::UsageError(a.scene + ": the scene has no patches");
+  if (seconds) *seconds = t.seconds();
+  return m;
+}
+
+void add_info(CLI::App& app, InfoArgs& a) {
+  CLI::App* cmd = app.add_subcommand("info", "load a scene and print its patches, lights and the memory a run needs");
+  add_scene_options(cmd, a);
+}
+
+int run_info(const InfoArgs& a) {
+  double load_s = 0;
+  const Mesh m = load_scene(a, &load_s);
+  double area = 0, amin = 1e300, amax = 0, rho_max = 0;
+  size_t emitters = 0;
+  bool grey = true;
+  for (const Patch& p : m.patches) {
+    const double pa = p.area();
+    area += pa;
+    amin = std::min(amin, pa);
+    amax = std::max(amax, pa);
+    if (p.emission[0] > 0 || p.emission[1] > 0 || p.emission[2] > 0) ++emitters;
+    for (int c = 0; c < 3; ++c) rho_max = std::max(rho_max, p.reflectivity[c]);
+    grey = grey && p.emission[0] == p.emission[1] && p.emission[1] == p.emission[2] &&
+           p.reflectivity[0] == p.reflectivity[1] && p.reflectivity[1] == p.reflectivity[2];
+  }
+  const double n = static_cast<double>(m.size());
+  nlohmann::json rec = hpcgi::record::make("radiosity");
+  rec["params"] = {{"command", "info"}, {"scene", a.scene}, {"divide", a.load.divide}};
+  rec["result"] = {{"patches", m.size()},        {"entities", m.entities.size()}, {"emitting_patches", emitters},
+                   {"total_area", area},         {"min_patch_area", amin},         {"max_patch_area", amax},
+                   {"max_reflectivity", rho_max}, {"grey", grey},                  {"mesh_hash", mesh_hash(m)},
+                   {"dense_ff_bytes", 4.0 * n * n}};
+  rec["times_s"] = {{"load", load_s}};
+  if (!a.quiet) {
+    std::printf("%s: %zu patches in %zu entities (divide %g), %zu emitting, loaded in %.3f s\n", a.scene.c_str(),
+                m.size(), m.entities.size(), a.load.divide, emitters, load_s);
+    std::printf("  total area %.4g, patch areas %.3g .. %.3g, max reflectivity %.3g, %s\n", area, amin, amax,
+                rho_max, grey ? "grey (all channels equal)" : "coloured");
+    std::printf("  dense float32 form factors: %.3f GiB\n", 4.0 * n * n / (1 << 30));
+  }
+  if (a.json) std::cout << rec.dump() << std::endl;
+  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  return 0;
+}
+
+}  // namespace radiosity::app
