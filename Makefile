@@ -34,7 +34,7 @@ MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(i
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
-MOD_solve      := $(wildcard radiosity/solve/*.cpp)
+MOD_solve      := $(wildcard radiosity/solve/*.cpp) $(if $(HAVE_CUDA),$(wildcard radiosity/solve/*.cu))
 MOD_render     := $(wildcard radiosity/render/*.cpp)
 MOD_app        := $(wildcard radiosity/app/*.cpp)
 SUITE_poisson    := common poisson
@@ -80,7 +80,7 @@ unit: $(UNIT_TESTS)
 
 $(BUILD)/%.cpp.o: %.cpp
 	@mkdir -p $(@D)
-	$(if $(filter $<,$(MPI_SOURCES)),$(MPICXX),$(CXX)) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
+	$(if $(and $(HAVE_MPI),$(filter $<,$(MPI_SOURCES))),$(MPICXX),$(CXX)) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
 
 $(BUILD)/%.cu.o: %.cu
 	@mkdir -p $(@D)
