@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -80,10 +82,20 @@ nlohmann::json provenance() {
   return p;
 }
 
+namespace {
+std::vector<std::string>& command_line() {
+  static std::vector<std::string> args;
+  return args;
+}
+}  // namespace
+
+void set_command_line(int argc, char** argv) { command_line().assign(argv, argv + argc); }
+
 nlohmann::json make(const std::string& app) {
   nlohmann::json r;
   r["schema"] = kSchema;
   r["app"] = app;
+  r["argv"] = command_line();
   r["provenance"] = provenance();
   return r;
 }

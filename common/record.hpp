@@ -17,7 +17,11 @@ inline constexpr const char* kSchema = "hpcgi-record/1";
 // OpenMP threads, Slurm job/array ids, UTC time. Backends add their own (MPI library, GPU) in backend_info.
 nlohmann::json provenance();
 
-// A new record with schema, app and provenance filled in.
+// Remembers the program's command line (main calls it first); records carry it as "argv", so that an audit can
+// run the same case again.
+void set_command_line(int argc, char** argv);
+
+// A new record with schema, app, argv and provenance filled in.
 nlohmann::json make(const std::string& app);
 
 // Appends `rec` as one line to `path` (parent folders are created). The line is written by one write() under an

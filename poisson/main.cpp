@@ -158,6 +158,7 @@ int main(int argc, char** argv) {
   app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
              "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n");
   int code = 0;
+  hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
 
   return hpcgi::run_main("poisson", [&]() -> int {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "common/cli.hpp"
+#include "common/record.hpp"
 #include "radiosity/app/commands.hpp"
 
 int main(int argc, char** argv) {
@@ -25,6 +26,7 @@ int main(int argc, char** argv) {
   radiosity::app::add_formfactors(app, ff);
   radiosity::app::add_solve(app, solve);
   int code = 0;
+  hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
   return hpcgi::run_main("radiosity", [&]() -> int {
     if (app.got_subcommand("info")) return radiosity::app::run_info(info);
