@@ -10,18 +10,24 @@ OPT       ?= -O3 -march=native
 PYTHON    ?= python3
 VENV      ?= .venv
 
-BUILD ?= build
-BIN   ?= bin
+# SANITIZE=address,undefined builds into its own folders (build-address-undefined/, bin-address-undefined/), so a
+# sanitized build never mixes with the normal one; nvcc's objects cannot be sanitized, so CUDA is left out there.
+SANITIZE ?=
+comma := ,
+SAN_SUFFIX := $(if $(SANITIZE),-$(subst $(comma),-,$(SANITIZE)))
+BUILD ?= build$(SAN_SUFFIX)
+BIN   ?= bin$(SAN_SUFFIX)
+# UBSan stops at its first report instead of printing and going on, so a finding fails the test.
+SAN_FLAGS := $(if $(SANITIZE),-g -fno-omit-frame-pointer -fsanitize=$(SANITIZE) -fno-sanitize-recover=all)
 
 HAVE_MPI  := $(if $(shell command -v $(MPICXX) 2>/dev/null),1,)
-NVCC_PATH := $(shell command -v $(NVCC) 2>/dev/null)
+NVCC_PATH := $(if $(SANITIZE),,$(shell command -v $(NVCC) 2>/dev/null))
 HAVE_CUDA := $(if $(NVCC_PATH),1,)
 CUDA_HOME ?= $(if $(NVCC_PATH),$(abspath $(dir $(NVCC_PATH))/..),)
 
-comma := ,
 DEFS := $(if $(HAVE_MPI),-DHAVE_MPI -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX) $(if $(HAVE_CUDA),-DHAVE_CUDA)
 CPPFLAGS += -I. -I$(BUILD)/gen $(DEFS)
-CXXFLAGS += -std=c++17 $(OPT) -fopenmp -Wall -Wextra -MMD -MP
+CXXFLAGS += -std=c++17 $(OPT) $(SAN_FLAGS) -fopenmp -Wall -Wextra -MMD -MP
 NVCCFLAGS ?= -O3 -std=c++17 -arch=sm_$(CUDA_ARCH) -Xcompiler -fopenmp
 LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
@@ -52,19 +58,24 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 PRESET ?= quick
 EXPERIMENTS ?= table41
-.PHONY: all test unit deps clean help reproduce plots FORCE
+.PHONY: all test unit fuzz deps clean help reproduce plots FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
-	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: no '$(NVCC)' on PATH (set NVCC=...); backends cublas1, cublas2, cuda are not built")
+	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: $(if $(SANITIZE),nvcc's objects cannot be sanitized,no '$(NVCC)' on PATH (set NVCC=...)); backends cublas1, cublas2, cuda are not built")
 
 help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
 	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make plots"
+	@echo "make resume     run (or submit) only the cases not yet recorded"
 	@echo "make plots      tables (results/tables) and plots (results/plots) from the records"
+	@echo "make report     the reproduced report, report/REPORT-<preset>.md, from the tables and plots"
+	@echo "make audit      re-run a sample of recorded cases and compare (AUDIT_SAMPLE=5)"
+	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=..."
+	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"
 	@echo "make clean      remove build/ and bin/"
-	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV"
+	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
 
 # Provenance baked into the binaries; rewritten only when its content changes, so nothing rebuilds needlessly.
 $(BUILD)/gen/build_info.inc: FORCE
@@ -100,25 +111,62 @@ $(BUILD)/tests/%_tests: $$(call obj,$$(wildcard tests/unit/$$*/*.cpp)) $$(call m
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ -lgtest_main -lgtest -pthread $(LDLIBS)
 
+# Fuzzing (tests/fuzz/): libFuzzer targets built by clang with ASan and UBSan into build-fuzz/, run one after the
+# other for FUZZ_SECONDS each by tests/fuzz/run, which reports the executions and fails on any finding.
+FUZZ_CXX     ?= clang++
+FUZZ_SECONDS ?= 60
+FUZZ_BUILD   ?= build-fuzz
+FUZZ_TARGETS := scene ff_file
+FUZZ_SRC_scene   := tests/fuzz/fuzz_scene.cpp $(MOD_scene)
+FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/ff_file.cpp radiosity/formfactor/form_factors.cpp
+FUZZ_HEADERS := $(wildcard common/*.hpp radiosity/*.hpp radiosity/scene/*.hpp radiosity/formfactor/*.hpp tests/fuzz/*.hpp)
+$(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) -std=c++17 -g -O1 -I. -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+	  $(FUZZ_SRC_$*) -o $@ -lpugixml
+fuzz: $(patsubst %,$(FUZZ_BUILD)/fuzz_%,$(FUZZ_TARGETS))
+	tests/fuzz/run $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
 deps:
 	@common/deps.sh
 
 # make test: install what is missing, build, run the C++ unit tests, then pytest (whose summary line is last).
 test:
 	@common/deps.sh --check || common/deps.sh
-	@$(MAKE) --no-print-directory all $(UNIT_TESTS)
+	@$(MAKE) --no-print-directory $(if $(SANITIZE),,all) $(UNIT_TESTS)
 	@for t in $(UNIT_TESTS); do echo "== $$t"; $$t --gtest_brief=1 || exit 1; done
-	$(VENV)/bin/python -m pytest tests
+	$(if $(SANITIZE),@echo "make test: SANITIZE=$(SANITIZE) runs the C++ unit tests; the integration tests run in plain make test",$(VENV)/bin/python -m pytest tests)
 
-# The study: the same case lists the Slurm job scripts use, run locally (slurm/run-local), then the tables.
+# The study: the case lists of slurm/cases/$(PRESET), run locally (RUNNER=local: slurm/run-local, then the
+# tables, plots and report) or submitted as job arrays (RUNNER=slurm: slurm/submit, make plots chained after).
 reproduce:
 	@common/deps.sh --check || common/deps.sh
 	@$(MAKE) --no-print-directory all
+ifeq ($(RUNNER),slurm)
+	PRESET=$(PRESET) slurm/submit $(EXPERIMENTS)
+else
+	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS); status=$$?; \
+	$(MAKE) --no-print-directory report PRESET=$(PRESET) && exit $$status
+endif
+
+# Only what is missing or failed: locally the runner skips recorded cases anyway; on Slurm the missing indices.
+resume:
+ifeq ($(RUNNER),slurm)
+	PRESET=$(PRESET) RESUME=1 slurm/submit $(EXPERIMENTS)
+else
 	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS)
-	@$(MAKE) --no-print-directory plots
+endif
 
 plots:
-	$(VENV)/bin/python -m analysis $(PRESET)
+	$(VENV)/bin/python -m analysis tables $(PRESET)
+
+report: plots
+	$(VENV)/bin/python -m analysis report $(PRESET)
+
+# Re-runs a sample of recorded cases here and compares outcome and time with the records.
+AUDIT_SAMPLE ?= 5
+audit:
+	$(VENV)/bin/python -m analysis audit $(PRESET) --sample $(AUDIT_SAMPLE)
 
 clean:
 	rm -rf $(BUILD) $(BIN)
