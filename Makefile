@@ -57,8 +57,9 @@ UNIT_TESTS := $(patsubst %,$(BUILD)/tests/%_tests,$(SUITES))
 PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 PRESET ?= quick
-EXPERIMENTS ?= table41
-.PHONY: all test unit fuzz deps clean help reproduce plots FORCE
+RUNNER ?= local
+EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42
+.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
 	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: $(if $(SANITIZE),nvcc's objects cannot be sanitized,no '$(NVCC)' on PATH (set NVCC=...)); backends cublas1, cublas2, cuda are not built")
