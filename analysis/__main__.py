@@ -1,16 +1,32 @@
-"""python -m analysis [PRESET]: every table and plot from the records of PRESET (default: quick)."""
+"""python -m analysis tables|report|audit PRESET [--sample N]
+
+  tables  every table (results/tables/*.csv, *.md) and plot (results/plots/*.png) from the records of PRESET
+  report  the reproduced report, report/REPORT-<preset>.md (run `tables` first; make report does)
+  audit   re-runs a sample of PRESET's recorded cases here and compares outcome and time with the records"""
+import argparse
 import sys
 
-from analysis import table41
-from analysis.records import RESULTS
+from analysis import audit, figure42, radiosity_tables, report, table41
 
 
 def main():
-    preset = sys.argv[1] if len(sys.argv) > 1 else "quick"
-    tables, plots = RESULTS / "tables", RESULTS / "plots"
-    t = table41.write(preset, tables, plots)
-    print(f"analysis: table41 ({preset}): {'no records' if t is None else f'{len(t)} rows'} -> {tables}, {plots}")
+    ap = argparse.ArgumentParser(prog="python -m analysis", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("command", choices=["tables", "report", "audit"])
+    ap.add_argument("preset", nargs="?", default="quick")
+    ap.add_argument("--sample", type=int, default=5, help="audit: how many recorded cases to re-run")
+    a = ap.parse_args()
+    if a.command == "tables":
+        made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
+                "figure42": figure42.write(a.preset)}
+        for name, out in made.items():
+            print(f"analysis: {name} ({a.preset}): {'no records' if out is None else 'written'}")
+        return 0
+    if a.command == "report":
+        print(f"analysis: wrote {report.write(a.preset)}")
+        return 0
+    return audit.run(a.preset, a.sample)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -2,23 +2,47 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "results"
+TABLES = RESULTS / "tables"
+PLOTS = RESULTS / "plots"
+
+# The report's scene numbers: 1 and 2 are our scenes, 3 and 4 RRV's rooms.
+SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
+
+
+def read_jsonl(path):
+    """The records of one file; a line that does not parse is an error (appends are atomic, so none should)."""
+    rows = []
+    for n, line in enumerate(Path(path).read_text().splitlines(), 1):
+        if line.strip():
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}:{n}: not a JSON record: {e}") from e
+    return rows
 
 
 def load(experiment, preset=None):
     """All records of an experiment (one preset, or every preset) as one flat frame: columns like 'params.n'."""
-    files = sorted((RESULTS / experiment).glob(f"{preset or '*'}.jsonl"))
     rows = []
-    for f in files:
-        for line in f.read_text().splitlines():
-            if line.strip():
-                rec = json.loads(line)
-                rec["file"] = str(f.relative_to(ROOT))
-                rows.append(rec)
-    return pd.json_normalize(rows) if rows else pd.DataFrame()
+    for f in sorted((RESULTS / experiment).glob(f"{preset or '*'}.jsonl")):
+        for rec in read_jsonl(f):
+            rec["file"] = str(f.relative_to(ROOT))
+            rows.append(rec)
+    df = pd.json_normalize(rows) if rows else pd.DataFrame()
+    if "params.scene" in df.columns:
+        df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name))
+    return df
+
+
+def skipped(experiment, preset):
+    """Cases the runner skipped (a GPU case on a machine without one), as a frame with case, host and reason."""
+    f = RESULTS / experiment / f"{preset}.skipped"
+    return pd.DataFrame(read_jsonl(f)) if f.exists() else pd.DataFrame(columns=["case", "host", "utc", "reason"])
 
 
 def paper_table(name):
@@ -26,7 +50,22 @@ def paper_table(name):
     return pd.read_csv(RESULTS / "paper" / f"{name}.csv", comment="#")
 
 
-def summarise(df, keys, value):
-    """Median of `value` over repeats per `keys`, with min, max and the repeat count."""
-    g = df.groupby(keys, dropna=False)[value]
-    return g.agg(median="median", min="min", max="max", repeats="count").reset_index()
+def median_ci(values, level=0.95, resamples=2000):
+    """A bootstrap confidence interval of the median (fixed seed: the same records give the same table)."""
+    v = np.asarray(values, dtype=float)
+    rng = np.random.default_rng(12345)
+    meds = np.median(rng.choice(v, size=(resamples, len(v)), replace=True), axis=1)
+    return np.quantile(meds, (1 - level) / 2), np.quantile(meds, (1 + level) / 2)
+
+
+def summarise(df, keys, value, ci_from=5):
+    """Median of `value` over repeats per `keys`, with min, max, repeat count and, from `ci_from` repeats on, a 95%
+    bootstrap confidence interval of the median."""
+    rows = []
+    for k, g in df.groupby(keys, dropna=False):
+        v = g[value].dropna()
+        row = dict(zip(keys, k if isinstance(k, tuple) else (k,)))
+        row.update(median=v.median(), min=v.min(), max=v.max(), repeats=len(v))
+        row["ci_low"], row["ci_high"] = median_ci(v) if len(v) >= ci_from else (np.nan, np.nan)
+        rows.append(row)
+    return pd.DataFrame(rows)

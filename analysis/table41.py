@@ -6,13 +6,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.records import RESULTS, load, paper_table, summarise  # noqa: E402
+from analysis.radiosity_tables import no_gpu_note, threads_note, write  # noqa: E402
+from analysis.records import PLOTS, load, paper_table, summarise  # noqa: E402
 
 GPU = ("cublas1", "cublas2", "cuda")
 
 
 def column(row):
-    """The Table 4.1 column a record belongs to: p<ranks> for MPI, the backend name for CUDA."""
+    """The Table 4.1 column a record belongs to: p<ranks> for MPI, the backend name otherwise."""
     if row["params.backend"] == "mpi":
         return f"p{int(row['params.ranks'])}"
     return row["params.backend"]
@@ -21,23 +22,18 @@ def column(row):
 def ours(preset):
     df = load("table41", preset)
     if df.empty:
-        return df
+        return df, df
     df = df[df["result.status"] == "converged"].copy()
     df["column"] = df.apply(column, axis=1)
     df["time_s"] = df["times_s.solve"] + df["times_s.setup"]
-    s = summarise(df, ["params.n", "column"], "time_s")
-    s["host"] = df.groupby(["params.n", "column"])["provenance.host"].first().values
-    return s.rename(columns={"params.n": "n"})
+    return df, summarise(df, ["params.n", "column"], "time_s").rename(columns={"params.n": "n"})
 
 
-def write(preset, out_tables, out_plots):
-    s = ours(preset)
-    paper = paper_table("table41").set_index("n")
-    out_tables.mkdir(parents=True, exist_ok=True)
-    out_plots.mkdir(parents=True, exist_ok=True)
+def write_table(preset):
+    df, s = ours(preset)
     if s.empty:
         return None
-    s.to_csv(out_tables / f"table41_{preset}.csv", index=False)
+    paper = paper_table("table41").set_index("n")
     wide = s.pivot(index="n", columns="column", values="median")
     cols = sorted((c for c in wide.columns if c.startswith("p")), key=lambda c: int(c[1:]))
     cols += [c for c in ("openmp", "serial", *GPU) if c in wide.columns]
@@ -48,15 +44,10 @@ def write(preset, out_tables, out_plots):
             row[f"ours {c}"] = wide.loc[n, c]
             if n in paper.index and c in paper.columns:
                 row[f"report {c}"] = paper.loc[n, c]
-                row[f"ours/report {c}"] = wide.loc[n, c] / paper.loc[n, c]
+                row[f"ratio {c}"] = wide.loc[n, c] / paper.loc[n, c]
         rows.append(row)
-    table = pd.DataFrame(rows)
-    missing_gpu = [c for c in GPU if c not in wide.columns]
-    md = [f"### Table 4.1 ({preset} preset): CG run time in seconds (setup + solve, median of repeats)", ""]
-    md.append(table.to_markdown(index=False, floatfmt=".4g"))
-    if missing_gpu:
-        md += ["", f"No GPU on this machine: {', '.join(missing_gpu)} not measured."]
-    (out_tables / f"table41_{preset}.md").write_text("\n".join(md) + "\n")
+    text = write("table41", preset, f"Table 4.1 ({preset}): Poisson CG to 1e-6, run time in s (setup + solve)",
+                 pd.DataFrame(rows), [threads_note(df), no_gpu_note("table41", preset)], detail=s)
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for c in cols:
@@ -65,10 +56,11 @@ def write(preset, out_tables, out_plots):
         ax.loglog(paper.index, paper[c], "x--", alpha=0.6, label=f"report {c}")
     ax.set_xlabel("N (grid points per dimension)")
     ax.set_ylabel("run time (s)")
-    ax.set_title(f"Figure 4.1: Poisson CG, {preset} preset vs. report")
+    ax.set_title(f"Figure 4.1: Poisson CG ({preset}) vs. the report")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(out_plots / f"figure41_{preset}.png", dpi=120)
+    PLOTS.mkdir(parents=True, exist_ok=True)
+    fig.savefig(PLOTS / f"figure41_{preset}.png", dpi=120)
     plt.close(fig)
-    return table
+    return text

@@ -1,0 +1,160 @@
+"""Tables 4.2-4.5 of the report from the radiosity records, beside the published numbers."""
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from analysis.records import PLOTS, TABLES, load, paper_table, skipped, summarise  # noqa: E402
+
+
+def run_time(df):
+    """What the report times as a run: building the solver's data (and uploading F to a GPU) plus the iterations;
+    not the scene or form-factor file loading, which the report did before its timer started."""
+    t = df["times_s.setup"] + df["times_s.solve"]
+    if "times_s.upload" in df.columns:
+        t = t + df["times_s.upload"].fillna(0)
+    return t
+
+
+def solves(experiment, preset):
+    df = load(experiment, preset)
+    if df.empty:
+        return df
+    df = df[df["params.command"] == "solve"].copy()
+    df["time_s"] = run_time(df)
+    df["column"] = df.apply(column_of, axis=1)
+    return df
+
+
+def column_of(r):
+    """The report's column a solve belongs to."""
+    b = r["params.backend"]
+    if b == "cuda" and r.get("params.fused") is True:
+        return "cuda_fused"
+    return b
+
+
+def no_gpu_note(experiment, preset):
+    s = skipped(experiment, preset)
+    if s.empty:
+        return ""
+    hosts = ", ".join(sorted(set(s["host"])))
+    return f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them."
+
+
+def compare(ours, paper, key, columns):
+    """One row per key value: ours (median), the report's, and ours/report for every column."""
+    rows = []
+    for k in sorted(set(paper[key]) | set(ours.get(key, pd.Series(dtype=float)))):
+        row = {key: k}
+        p = paper[paper[key] == k]
+        for c in columns:
+            o = ours[(ours[key] == k) & (ours["column"] == c)] if not ours.empty else ours
+            mine = o["median"].iloc[0] if len(o) else np.nan
+            theirs = p[c].iloc[0] if len(p) and c in p.columns else np.nan
+            row[f"ours {c}"] = mine
+            row[f"report {c}"] = theirs
+            row[f"ratio {c}"] = mine / theirs if np.isfinite(mine) and np.isfinite(theirs) else np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def markdown(title, table, notes):
+    body = table.to_markdown(index=False, floatfmt=".4g").replace(" nan ", " — ")
+    return "\n".join([f"### {title}", "", body, "", *[n for n in notes if n]]) + "\n"
+
+
+def write(name, preset, title, table, notes, detail=None):
+    TABLES.mkdir(parents=True, exist_ok=True)
+    (detail if detail is not None else table).to_csv(TABLES / f"{name}_{preset}.csv", index=False)
+    text = markdown(title, table, notes)
+    (TABLES / f"{name}_{preset}.md").write_text(text)
+    return text
+
+
+def table42(preset):
+    df = solves("table42", preset)
+    if df.empty:
+        return None
+    t = summarise(df, ["scene_id", "params.patches", "params.method"], "time_s")
+    it = df.groupby(["scene_id", "params.method"])["result.iterations"].median().rename("iter").reset_index()
+    t = t.merge(it, on=["scene_id", "params.method"])
+    paper = paper_table("table42")
+    rows = []
+    for s in sorted(set(t["scene_id"]) | set(paper["scene"])):
+        row = {"scene": s}
+        mine = t[t["scene_id"] == s]
+        row["patches"] = mine["params.patches"].iloc[0] if len(mine) else paper.loc[paper.scene == s, "patches"].iloc[0]
+        p = paper[paper["scene"] == s]
+        for m in ("jacobi", "bicgstab"):
+            o = mine[mine["params.method"] == m]
+            row[f"ours {m} iter"] = o["iter"].iloc[0] if len(o) else np.nan
+            row[f"report {m} iter"] = p[f"{m}_iter"].iloc[0] if len(p) else np.nan
+            row[f"ours {m} s"] = o["median"].iloc[0] if len(o) else np.nan
+            row[f"report {m} s"] = p[f"{m}_s"].iloc[0] if len(p) else np.nan
+        rows.append(row)
+    return write("table42", preset, f"Table 4.2 ({preset}): OpenMP Jacobi vs. BiCG-STAB to 1e-6 (run time in s)",
+                 pd.DataFrame(rows), [threads_note(df)], detail=t)
+
+
+def threads_note(df):
+    th = sorted(set(df["params.threads"].dropna().astype(int)))
+    hosts = sorted(set(df["provenance.host"]))
+    return f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s)."
+
+
+def aos_soa(name, preset, layout, columns, extra=()):
+    df = solves(name, preset)
+    orig = solves("table43", preset) if name == "table44" else pd.DataFrame()
+    if not orig.empty:  # the report repeats the AOS Original column in Table 4.4
+        df = pd.concat([df, orig[orig["params.backend"] == "original"]])
+    if df.empty:
+        return None
+    s = summarise(df, ["scene_id", "column"], "time_s").rename(columns={"scene_id": "scene"})
+    table = compare(s, paper_table(name), "scene", columns)
+    for c in extra:
+        o = s[s["column"] == c].set_index("scene")["median"]
+        table[f"ours {c}"] = table["scene"].map(o)
+    title = f"Table {name[-2]}.{name[-1]} ({preset}): {layout} Jacobi to 1e-6, run time in s"
+    return write(name, preset, title, table, [threads_note(df), no_gpu_note(name, preset),
+                                              "Original: RRV's loop for the report's Jacobi iterations of that scene."],
+                 detail=s)
+
+
+def table45(preset):
+    df = solves("table45", preset)
+    paper = paper_table("table45")
+    note = no_gpu_note("table45", preset)
+    s = summarise(df, ["params.distribution"], "time_s") if not df.empty else pd.DataFrame()
+    table = paper.rename(columns={"runtime_s": "report s"})
+    table["ours s"] = table["distribution"].map(s.set_index("params.distribution")["median"]) if len(s) else np.nan
+    table["ratio"] = table["ours s"] / table["report s"]
+    PLOTS.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    ax.plot(paper["distribution"], paper["runtime_s"], "x--", label="report (scene 4, K20 + 16 cores)")
+    if len(s):
+        ax.errorbar(s["params.distribution"], s["median"], yerr=[s["median"] - s["min"], s["max"] - s["median"]],
+                    fmt="o-", label="ours")
+    else:
+        ax.text(0.5, 0.5, "ours: no GPU on this machine", transform=ax.transAxes, ha="center")
+    ax.set_xlabel("distribution factor d (share of rows on the GPU)")
+    ax.set_ylabel("run time (s)")
+    ax.set_title(f"Table 4.5: hybrid CPU/GPU Jacobi ({preset})")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(PLOTS / f"table45_{preset}.png", dpi=120)
+    plt.close(fig)
+    return write("table45", preset, f"Table 4.5 ({preset}): hybrid CPU/GPU Jacobi, run time in s", table, [note],
+                 detail=s if len(s) else table)
+
+
+def write_all(preset):
+    return {
+        "table42": table42(preset),
+        "table43": aos_soa("table43", preset, "AOS", ["original", "serial", "cuda", "openmp"]),
+        "table44": aos_soa("table44", preset, "SOA", ["original", "serial", "cuda", "openmp"], extra=["cuda_fused"]),
+        "table45": table45(preset),
+    }

@@ -1,0 +1,155 @@
+"""The reproduced report: report/REPORT-<preset>.md with the machine's provenance, every table and figure beside
+the report's numbers, and for each claim of the report whether our records confirm it, refute it, or cannot say."""
+from pathlib import Path
+
+import pandas as pd
+
+from analysis import radiosity_tables, table41
+from analysis.records import PLOTS, ROOT, TABLES, load
+
+EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42")
+
+
+def provenance(preset):
+    frames = [load(e, preset) for e in EXPERIMENTS]
+    df = pd.concat([f for f in frames if not f.empty], ignore_index=True) if any(not f.empty for f in frames) else None
+    if df is None:
+        return ["No records yet: run `make reproduce PRESET=%s`." % preset], 0
+    lines = []
+    for col, what in (("provenance.host", "host"), ("provenance.cpu_model", "CPU"), ("provenance.cpus_online", "CPUs"),
+                      ("provenance.compiler", "compiler"), ("provenance.git_commit", "git commit"),
+                      ("backend_info.gpu", "GPU"), ("backend_info.mpi_library", "MPI")):
+        if col in df.columns:
+            vals = sorted({str(v) for v in df[col].dropna()})
+            lines.append(f"- {what}: {', '.join(vals) if vals else 'none'}")
+    if "backend_info.gpu" not in df.columns:
+        lines.append("- GPU: none used (no GPU on this machine)")
+    dirty = df["provenance.git_dirty"].astype(bool).sum() if "provenance.git_dirty" in df.columns else 0
+    lines.append(f"- records: {len(df)} ({dirty} from a working tree with uncommitted changes), "
+                 f"UTC {df['provenance.utc'].min()} to {df['provenance.utc'].max()}")
+    return lines, len(df)
+
+
+def medians(experiment, preset, keys):
+    df = radiosity_tables.solves(experiment, preset)
+    if df.empty:
+        return df
+    g = df.groupby(keys).agg(time_s=("time_s", "median"), iterations=("result.iterations", "median"))
+    return g.reset_index()
+
+
+def claim_bicgstab(preset):
+    m = medians("table42", preset, ["scene_id", "params.method"])
+    if m.empty:
+        return "cannot say", "no Table 4.2 records"
+    w = m.pivot(index="scene_id", columns="params.method")
+    fewer = (w["iterations"]["bicgstab"] < w["iterations"]["jacobi"])
+    slower = (w["time_s"]["bicgstab"] > w["time_s"]["jacobi"])
+    nums = "; ".join(f"scene {s}: {w['iterations']['jacobi'][s]:.0f} vs {w['iterations']['bicgstab'][s]:.0f} iterations, "
+                     f"{w['time_s']['jacobi'][s]:.4g} s vs {w['time_s']['bicgstab'][s]:.4g} s" for s in w.index)
+    if fewer.all() and slower.all():
+        return "confirmed", nums
+    if fewer.all() and not slower.any():
+        return "refuted: BiCG-STAB needs fewer iterations and is also faster", nums
+    return "partly", nums
+
+
+def claim_gpu(preset, experiment, what):
+    df = radiosity_tables.solves(experiment, preset) if experiment != "table41" else load("table41", preset)
+    gpu = df[df["params.backend"].isin(["cuda", "cublas1", "cublas2", "hybrid"])] if not df.empty else df
+    if gpu.empty:
+        return "cannot say", f"no GPU on this machine: {what} not measured"
+    return None, ""
+
+
+def claim_aos_openmp(preset):
+    verdict, why = claim_gpu(preset, "table43", "the CUDA AOS column")
+    m = medians("table43", preset, ["scene_id", "params.backend"])
+    if m.empty:
+        return "cannot say", "no Table 4.3 records"
+    w = m.pivot(index="scene_id", columns="params.backend", values="time_s")
+    cpu = [c for c in ("original", "serial", "openmp") if c in w.columns]
+    best = w[cpu].idxmin(axis=1)
+    nums = "; ".join(f"scene {s}: fastest CPU column {best[s]} ({w.loc[s, best[s]]:.4g} s)" for s in w.index)
+    if verdict:
+        return verdict, f"{why}. Among the CPU columns: {nums}"
+    allc = [c for c in ("original", "serial", "openmp", "cuda") if c in w.columns]
+    best = w[allc].idxmin(axis=1)
+    ok = all(best[s] == ("cuda" if s == min(w.index) else "openmp") for s in w.index)
+    return ("confirmed" if ok else "refuted"), "; ".join(f"scene {s}: fastest {best[s]}" for s in w.index)
+
+
+def claim_soa(preset):
+    verdict, why = claim_gpu(preset, "table44", "the cuBLAS SOA column")
+    if verdict:
+        return verdict, why
+    m = medians("table44", preset, ["scene_id", "params.backend"])
+    w = m.pivot(index="scene_id", columns="params.backend", values="time_s")
+    large = max(w.index)
+    ok = w.loc[large, "cuda"] < w.loc[large, "openmp"]
+    return ("confirmed" if ok else "refuted"), f"scene {large}: cuda {w.loc[large, 'cuda']:.4g} s, openmp {w.loc[large, 'openmp']:.4g} s"
+
+
+def claim_hybrid(preset):
+    verdict, why = claim_gpu(preset, "table45", "the hybrid sweep")
+    if verdict:
+        return verdict, why
+    df = radiosity_tables.solves("table45", preset)
+    t = df.groupby("params.distribution")["time_s"].median()
+    best = t.idxmin()
+    ok = 0 < best < 1
+    return ("confirmed" if ok and abs(best - 0.1) < 0.15 else "refuted"), f"fastest at d = {best:.1f} ({t[best]:.4g} s); d = 0: {t.get(0.0, float('nan')):.4g} s, d = 1: {t.get(1.0, float('nan')):.4g} s"
+
+
+def claim_poisson_gpu(preset):
+    verdict, why = claim_gpu(preset, "table41", "the CUDA Poisson runs")
+    if verdict:
+        return verdict, why
+    df, s = table41.ours(preset)
+    n = s["n"].max()
+    at = s[s["n"] == n].set_index("column")["median"]
+    gpu = at[[c for c in at.index if c in table41.GPU]].min()
+    cpu = at[[c for c in at.index if c not in table41.GPU]].min()
+    return ("confirmed" if gpu < cpu else "refuted"), f"N = {n}: best GPU {gpu:.4g} s, best CPU {cpu:.4g} s"
+
+
+CLAIMS = [
+    ("BiCG-STAB needs fewer iterations than Jacobi but more time (Table 4.2)", claim_bicgstab),
+    ("AOS with OpenMP is the fastest, except on the smallest scene where CUDA wins (Table 4.3)", claim_aos_openmp),
+    ("SOA with cuBLAS beats SOA with OpenMP on large scenes (Table 4.4)", claim_soa),
+    ("The hybrid is fastest near d = 0.1 but does not beat the single devices (Table 4.5)", claim_hybrid),
+    ("The GPU wins for large Poisson meshes (Table 4.1)", claim_poisson_gpu),
+]
+
+
+def include(name, preset):
+    f = TABLES / f"{name}_{preset}.md"
+    return f.read_text() if f.exists() else f"### {name}\n\nNo records for this preset yet.\n"
+
+
+def image(name, preset, alt):
+    f = PLOTS / f"{name}_{preset}.png"
+    return f"![{alt}](../{f.relative_to(ROOT)})\n" if f.exists() else f"({alt}: no records yet)\n"
+
+
+def write(preset):
+    prov, n = provenance(preset)
+    out = [f"# Reproduced report ({preset} preset)", "",
+           "The report: *Real Time Global Illumination Solutions to the Radiosity Algorithm using Hybrid CPU/GPU "
+           "Nodes* (UMBC HPCF-2014-15). Every number below comes from the records in `results/` (made by "
+           f"`make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from `results/paper/`. "
+           "Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core Intel E5-2650v2 "
+           "and an NVIDIA K20), so ratios of times compare machines as much as codes.", "",
+           "## Machine and provenance", "", *prov, "",
+           "## Claims of the report", "", "| claim | our data | the numbers that decide it |", "|---|---|---|"]
+    for text, fn in CLAIMS:
+        verdict, why = fn(preset)
+        out.append(f"| {text} | {verdict} | {why} |")
+    out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
+            "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
+            include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
+            "### Figure 4.2", "", image("figure42", preset, "Figure 4.2")]
+    path = ROOT / "report" / f"REPORT-{preset}.md"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text("\n".join(out) + "\n")
+    return path.relative_to(ROOT)
