@@ -49,6 +49,7 @@ SUITE_formfactor := common formfactor
 SUITE_solve      := common solve
 SUITE_common     := common
 SUITE_render     := common render
+SUITE_fuzz_corpus := common scene formfactor
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))

@@ -265,15 +265,25 @@ class Reader {
       std::vector<Patch> placed = s.triangles;
       for (size_t k = 0; k < placed.size(); ++k) {
         Patch& p = placed[k];
-        for (Vec3& v : p.v) v = m.apply(v);
+        for (Vec3& v : p.v) {
+          v = m.apply(v);
+          if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+            in_.fail(s.source[k], "triangle of '" + s.name + "' has a vertex out of range after the transforms of " +
+                                      "the object at line " + std::to_string(in_.line(object)));
+        }
         if (degenerate(p.v))
           in_.fail(s.source[k],
                    "triangle of '" + s.name + "' has zero area after the transforms of the object at line " +
                        std::to_string(in_.line(object)) + " (a scale that names only some axes sets the others to 0)");
         p.entity = static_cast<int>(mesh_.entities.size());
       }
-      const std::vector<Patch> patches = subdivide(placed, opt_.divide);
-      mesh_.patches.insert(mesh_.patches.end(), patches.begin(), patches.end());
+      const std::optional<std::vector<Patch>> patches =
+          subdivide(placed, opt_.divide, opt_.max_patches - mesh_.patches.size());
+      if (!patches)
+        in_.fail(object, "the scene subdivides into more than " + std::to_string(opt_.max_patches) +
+                             " patches at a maximum patch area of " + (std::ostringstream() << opt_.divide).str() +
+                             " (reached at '" + s.name + "'); use a larger --divide");
+      mesh_.patches.insert(mesh_.patches.end(), patches->begin(), patches->end());
       mesh_.entities.push_back(s.name);
     }
   }

@@ -13,6 +13,10 @@ namespace radiosity {
 
 struct LoadOptions {
   double divide = 1.0;  // maximum patch area (RRV's --divide); must be > 0
+  // A scene that subdivides into more patches is refused. 2^20 patches would need 4.4 TB for a dense F, far past
+  // any machine (the report's largest scene has 17128), while the mesh alone still fits in 160 MB: the limit only
+  // stops a huge triangle or a tiny --divide from taking all memory.
+  size_t max_patches = size_t(1) << 20;
   // ρ >= 1 in any channel is refused unless this is set: such a surface reflects all the light it receives, so
   // I - diag(ρ)F loses diagonal dominance and a closed scene has no unique solution. RRV's room3.xml has one.
   bool allow_reflectivity_ge_1 = false;

@@ -5,10 +5,12 @@
 
 namespace radiosity {
 
-std::vector<Patch> subdivide(const std::vector<Patch>& triangles, double max_area) {
+std::optional<std::vector<Patch>> subdivide(const std::vector<Patch>& triangles, double max_area,
+                                            size_t max_patches) {
   std::deque<Patch> queue(triangles.begin(), triangles.end());
   std::vector<Patch> out;
   while (!queue.empty()) {
+    if (out.size() + queue.size() > max_patches) return std::nullopt;
     Patch p = queue.front();
     queue.pop_front();
     if (p.area() <= max_area) {

@@ -157,3 +157,30 @@ TEST(Errors, TeapotWithoutTeapotObj) {
   opt.primitive_dir = empty.path().string();
   refused(in_objectdef("<teapot/>"), {"<string>:4:", "teapot.obj", empty.path().string(), "RRV_SCENES"}, opt);
 }
+
+// Found by fuzzing (tests/fuzz/regressions/scene): a vertex coordinate of 7e45 made one triangle subdivide
+// until memory ran out. The patch count is bounded, and the message says where and what to change.
+TEST(Errors, SubdivisionBeyondThePatchLimit) {
+  const std::string big = "<triangleset><triangle><vertex x='0' y='0' z='0'/><vertex x='1e30' y='0' z='0'/>"
+                          "<vertex x='0' y='1e30' z='0'/></triangle></triangleset>";
+  refused(in_objectdef(big), {"<string>:", "more than 1048576 patches", "maximum patch area of 1", "--divide"});
+  // The limit counts the whole scene, not one triangle: 3 instances of a 4-patch triangle exceed 10.
+  LoadOptions opt;
+  opt.max_patches = 10;
+  const std::string four = "<triangleset><triangle><vertex x='0' y='0' z='0'/><vertex x='2' y='0' z='0'/>"
+                           "<vertex x='0' y='2' z='0'/></triangle></triangleset>";
+  const std::string three = "<scene><head><objectdef name='o'>" + four +
+                            "</objectdef></head><body><object name='o'/><object name='o'/>\n<object name='o'/>"
+                            "</body></scene>";
+  refused(three, {"<string>:2:", "more than 10 patches"}, opt);
+  opt.max_patches = 12;
+  EXPECT_EQ(radiosity::load_rrv_scene_string(three, opt).size(), 12u);
+}
+
+TEST(Errors, VertexOutOfRangeAfterTransforms) {
+  // Each number is finite, their product is not: without the check the area is NaN and subdivision never ends.
+  refused("<scene>\n<head>\n<objectdef name='o'>\n<cuboid/>\n</objectdef>\n</head>\n<body><scale dx='1e300' "
+          "dy='1e300' dz='1e300'><scale dx='1e300' dy='1e300' dz='1e300'><object name='o'/></scale></scale></body>"
+          "</scene>",
+          {"<string>:4:", "out of range after the transforms"});
+}
