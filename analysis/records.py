@@ -1,12 +1,15 @@
 """Loading run records (JSON Lines) into flat pandas frames, and summarising repeats."""
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "results"
+# Records, tables and plots live in $RESULTS (default results/), the report's published numbers in results/paper.
+RESULTS = Path(os.environ.get("RESULTS", ROOT / "results")).resolve()
+PAPER = ROOT / "results" / "paper"
 TABLES = RESULTS / "tables"
 PLOTS = RESULTS / "plots"
 
@@ -31,7 +34,7 @@ def load(experiment, preset=None):
     rows = []
     for f in sorted((RESULTS / experiment).glob(f"{preset or '*'}.jsonl")):
         for rec in read_jsonl(f):
-            rec["file"] = str(f.relative_to(ROOT))
+            rec["file"] = str(f)
             rows.append(rec)
     df = pd.json_normalize(rows) if rows else pd.DataFrame()
     if "params.scene" in df.columns:
@@ -47,7 +50,7 @@ def skipped(experiment, preset):
 
 def paper_table(name):
     """The report's published numbers, transcribed once into results/paper/NAME.csv."""
-    return pd.read_csv(RESULTS / "paper" / f"{name}.csv", comment="#")
+    return pd.read_csv(PAPER / f"{name}.csv", comment="#")
 
 
 def median_ci(values, level=0.95, resamples=2000):

@@ -1,6 +1,6 @@
 """The reproduced report: report/REPORT-<preset>.md with the machine's provenance, every table and figure beside
 the report's numbers, and for each claim of the report whether our records confirm it, refute it, or cannot say."""
-from pathlib import Path
+import os
 
 import pandas as pd
 
@@ -129,7 +129,7 @@ def include(name, preset):
 
 def image(name, preset, alt):
     f = PLOTS / f"{name}_{preset}.png"
-    return f"![{alt}](../{f.relative_to(ROOT)})\n" if f.exists() else f"({alt}: no records yet)\n"
+    return f"![{alt}]({os.path.relpath(f, ROOT / 'report')})\n" if f.exists() else f"({alt}: no records yet)\n"
 
 
 def write(preset):

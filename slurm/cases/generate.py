@@ -2,8 +2,8 @@
 """Writes every case list of the study: slurm/cases/<preset>/<experiment>.txt. Run it after changing this file;
 the lists are committed, so a job array and the local runner always read the same lines.
 
-A line is "[ranks=P] PROGRAM ARGS..."; slurm/run-case replaces {FF_DIR}, {RRV_SCENES} and {PRESET} when it runs
-the line. A "# repeat: N" line sets the experiment's default repeat count (REPEAT in the environment wins)."""
+A line is "[ranks=P] PROGRAM ARGS..."; slurm/run-case replaces {FF_DIR}, {RRV_SCENES}, {PRESET} and {RESULTS}
+when it runs the line. A "# repeat: N" line sets the experiment's default repeat count (REPEAT in the environment wins)."""
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -23,6 +23,8 @@ PRESETS = {
     # quick: about ten minutes on 2 cores; scenes 1-3, a coarser hemicube, our exact weights.
     "quick": dict(scenes=[1, 2, 3], hemicube=128, weights="exact", poisson_n=[256, 512, 1024], ranks=[1, 2],
                   cores=2, hybrid_scene=3),
+    # ci: tiny cases for the test that runs the harness under a real single-node Slurm.
+    "ci": dict(scenes=[1], hemicube=16, weights="exact", poisson_n=[16, 32], ranks=[1, 2], cores=1, hybrid_scene=1),
     # paper: the report's sizes; RRV's hemicube (R = 256, its cos·cos weights) for a faithful reproduction.
     "paper": dict(scenes=[1, 2, 3, 4], hemicube=256, weights="rrv2007", poisson_n=[1024, 2048, 4096, 8192],
                   ranks=[1, 2, 4, 8, 16], cores=16, hybrid_scene=4),
@@ -67,7 +69,7 @@ def experiments(preset, p):
         for d in range(11)])
     e["figure42"] = ("Figure 4.2: scene 3 after 1, 2, 4, 8 and 32 Jacobi steps", 1, [
         f"{solve} {scene_args(3, preset)} --steps 32 --backend openmp --snapshots 1,2,4,8,32 "
-        f"--snapshot-prefix results/figure42/{{PRESET}}/room3 --view -9.5,3,9.5:0,-5,-3:70 --size 320x240"])
+        f"--snapshot-prefix {{RESULTS}}/figure42/{{PRESET}}/room3 --view -9.5,3,9.5:0,-5,-3:70 --size 320x240"])
     return e
 
 
