@@ -55,7 +55,7 @@ SUITES := $(notdir $(wildcard tests/unit/*))
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
 mods = $(call obj,$(foreach m,$(1),$(MOD_$(m))))
 UNIT_TESTS := $(patsubst %,$(BUILD)/tests/%_tests,$(SUITES))
-PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
+PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity) $(BIN)/stream
 
 PRESET ?= quick
 RUNNER ?= local
@@ -100,6 +100,10 @@ $(BUILD)/%.cu.o: %.cu
 	$(NVCC) -ccbin $(CXX) $(CPPFLAGS) $(NVCCFLAGS) -MMD -MP -c $< -o $@
 
 $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
+	@mkdir -p $(@D)
+	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
+
+$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 

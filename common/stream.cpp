@@ -1,0 +1,131 @@
+// bin/stream: the memory-bandwidth limit of this machine, measured with the compiler, flags and OpenMP threads of
+// the solvers (the limit their bandwidth fractions are taken against). Two sweeps over arrays far larger than
+// the caches, after McCalpin's STREAM:
+//   triad  a = b + s·c   counted as 24 bytes per element (2 reads, 1 write; STREAM's convention: the line that
+//                        a write allocates is not counted, so the true traffic is 32 bytes where stores allocate)
+//   read   Σ a           8 bytes per element (a read-only sweep, the pattern of a matrix-vector product)
+// Each sweep runs --trials times; the record keeps the best (STREAM's figure) and the median trial. The arrays are
+// first touched by the same static schedule as the sweeps, and the results are checked after the timing.
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/cli.hpp"
+#include "common/errors.hpp"
+#include "common/memory.hpp"
+#include "common/record.hpp"
+#include "common/timer.hpp"
+
+namespace {
+
+struct Args {
+  long size = 1L << 25;  // elements per array: 256 MiB of doubles, 8 times a 32 MiB last-level cache
+  int trials = 20;
+  int threads = 0;
+  std::string record_path;
+  bool json = false, quiet = false;
+};
+
+struct Stats {
+  double best = 0, median = 0;  // seconds
+};
+
+Stats stats(std::vector<double> t) {
+  std::sort(t.begin(), t.end());
+  const size_t m = t.size() / 2;
+  return {t.front(), t.size() % 2 ? t[m] : 0.5 * (t[m - 1] + t[m])};
+}
+
+int run(const Args& a) {
+  const long n = a.size;
+  hpcgi::require_host_memory("bin/stream --size " + std::to_string(n), 3.0 * sizeof(double) * n);
+  std::unique_ptr<double[]> av(new double[n]), bv(new double[n]), cv(new double[n]);
+  double *x = av.get(), *y = bv.get(), *z = cv.get();
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < n; ++i) {
+    x[i] = 0.0;
+    y[i] = 1.0;
+    z[i] = 2.0;
+  }
+  const double s = 3.0;
+  std::vector<double> triad_t, read_t;
+  double sum = 0;
+  for (int k = 0; k < a.trials; ++k) {
+    hpcgi::Timer t;
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < n; ++i) x[i] = y[i] + s * z[i];
+    triad_t.push_back(t.seconds());
+    t.reset();
+    double acc = 0;
+    // simd: partial sums per vector lane; a plain sum is one chain of dependent adds, bound by their latency.
+#pragma omp parallel for simd schedule(static) reduction(+ : acc)
+    for (long i = 0; i < n; ++i) acc += x[i];
+    read_t.push_back(t.seconds());
+    sum = acc;
+  }
+  // Every element of a is 1 + 3·2 = 7, so the read sweep must have summed 7n (exact in double for n < 2^49).
+  const bool valid = sum == 7.0 * static_cast<double>(n) &&
+                     std::all_of(x, x + n, [](double v) { return v == 7.0; });
+  if (!valid) throw hpcgi::NumericalError("the sweeps computed wrong values (sum " + std::to_string(sum) + ")");
+
+  const Stats tr = stats(triad_t), rd = stats(read_t);
+  const double triad_bytes = 24.0 * n, read_bytes = 8.0 * n;
+  const int threads = omp_get_max_threads();
+  nlohmann::json rec = hpcgi::record::make("stream");
+  rec["params"] = {{"size", n}, {"array_bytes", 8.0 * n}, {"trials", a.trials}, {"threads", threads},
+                   {"precision", "double"}};
+  rec["result"] = {{"valid", valid}};
+  rec["times_s"] = {{"triad_best", tr.best}, {"triad_median", tr.median}, {"read_best", rd.best},
+                    {"read_median", rd.median}};
+  rec["perf"] = {{"triad_bytes", triad_bytes},
+                 {"read_bytes", read_bytes},
+                 {"triad_GBps", triad_bytes / tr.best / 1e9},
+                 {"triad_median_GBps", triad_bytes / tr.median / 1e9},
+                 {"read_GBps", read_bytes / rd.best / 1e9},
+                 {"read_median_GBps", read_bytes / rd.median / 1e9},
+                 {"timer", "host wall clock"}};
+  rec["backend_info"] = {{"threads", std::to_string(threads)}};
+  if (!a.quiet) {
+    std::printf("stream: %ld doubles per array (%.0f MiB), %d threads, best and median of %d trials\n", n,
+                8.0 * n / (1 << 20), threads, a.trials);
+    std::printf("  triad a = b + s*c: %.2f GB/s (median %.2f GB/s)\n", triad_bytes / tr.best / 1e9,
+                triad_bytes / tr.median / 1e9);
+    std::printf("  read  sum(a):      %.2f GB/s (median %.2f GB/s)\n", read_bytes / rd.best / 1e9,
+                read_bytes / rd.median / 1e9);
+  }
+  if (a.json) std::cout << rec.dump() << std::endl;
+  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  CLI::App app{
+      "The memory bandwidth of this machine with the solvers' compiler, flags and OpenMP threads: a STREAM triad\n"
+      "(a = b + s*c, 24 bytes per element) and a read-only sweep (sum of a, 8 bytes per element) over arrays far\n"
+      "larger than the caches; best and median of --trials sweeps.",
+      "stream"};
+  app.add_option("--size", a.size, "elements (doubles) per array; 3 arrays")
+      ->check(CLI::Range(1L << 10, 1L << 36))->capture_default_str();
+  app.add_option("--trials", a.trials, "sweeps of each kind")->check(CLI::Range(1, 100000))->capture_default_str();
+  app.add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
+  app.add_flag("--json", a.json, "print the record on stdout");
+  app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+  app.footer("\nExample:\n  OMP_PROC_BIND=close OMP_PLACES=cores bin/stream --threads 2\n");
+  int code = 0;
+  if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
+  return hpcgi::run_main("stream", [&] {
+    if (a.threads > 0) omp_set_num_threads(a.threads);
+    return run(a);
+  });
+}
