@@ -21,24 +21,36 @@ const std::vector<BackendEntry>& backends() {
   const char* no_cuda = "built without CUDA (no nvcc found at build time)";
 #endif
   static const std::vector<BackendEntry> list = {
-      {"serial", "frozen reference: plain loops, one thread", true, ""},
-      {"openmp", "fused kernels, OpenMP threads over rows", true, ""},
-      {"mpi", "row blocks across ranks (mpirun -np P), halo exchange, OpenMP inside each rank", mpi, no_mpi},
-      {"cublas1", "report's cuBLAS 1: own stencil and axpby kernels, cublas dot", cuda, no_cuda},
+      {"serial", "frozen reference: plain loops, one thread", true, "", false},
+      {"openmp", "fused kernels, OpenMP threads over rows", true, "", true},
+      {"mpi", "row blocks across ranks (mpirun -np P), halo exchange, OpenMP inside each rank", mpi, no_mpi, true},
+      {"cublas1", "report's cuBLAS 1: own stencil and axpby kernels, cublas dot", cuda, no_cuda, false},
       {"cublas2", "report's cuBLAS 2: own stencil kernel, cuBLAS dot/axpy/scal for every vector operation", cuda,
-       no_cuda},
-      {"cuda", "our best: fused kernels, one reduction per dot, no needless synchronisation", cuda, no_cuda},
+       no_cuda, false},
+      {"cuda", "our best: fused kernels, one reduction per dot, no needless synchronisation", cuda, no_cuda, true},
   };
   return list;
 }
 
+namespace {
+const BackendEntry& entry(const std::string& name) {
+  for (const auto& b : backends())
+    if (b.name == name) return b;
+  throw hpcgi::UsageError("unknown backend '" + name + "' (see --help for the list)");
+}
+}  // namespace
+
+std::string default_variant(const std::string& backend, const std::string& precision) {
+  return entry(backend).onesweep && precision == "double" ? "onesweep" : "classic";
+}
+
 template <class T>
 std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg) {
-  const BackendEntry* e = nullptr;
-  for (const auto& b : backends())
-    if (b.name == cfg.backend) e = &b;
-  if (!e) throw hpcgi::UsageError("unknown backend '" + cfg.backend + "' (see --help for the list)");
+  const BackendEntry* e = &entry(cfg.backend);
   if (!e->built) throw hpcgi::UsageError("backend '" + cfg.backend + "' is not available: " + e->why_not);
+  if (cfg.variant != "classic" && !(cfg.variant == "onesweep" && e->onesweep))
+    throw hpcgi::UsageError("backend '" + cfg.backend + "' has no variant '" + cfg.variant + "'" +
+                            (e->onesweep ? " (classic or onesweep)" : " (classic only)"));
   if (cfg.backend == "serial") return make_serial<T>(cfg);
   if (cfg.backend == "openmp") return make_openmp<T>(cfg);
 #ifdef HAVE_MPI

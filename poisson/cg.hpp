@@ -1,9 +1,12 @@
-// Conjugate gradients written once for every backend (Hestenes-Stiefel with the fused kernels of kernels.hpp).
+// Conjugate gradients written once for every backend, in the two variants of kernels.hpp: classic
+// (Hestenes-Stiefel with three fused kernels) and onesweep (Chronopoulos-Gear, one pass per iteration). Both give
+// the same iterates in exact arithmetic.
 #pragma once
 #include <cmath>
 #include <functional>
 #include <string>
 
+#include "common/errors.hpp"
 #include "common/timer.hpp"
 #include "poisson/kernels.hpp"
 
@@ -21,10 +24,24 @@ struct CgResult {
   double check_s = 0;            // true residual and error after the solve
 };
 
+using CgProgress = std::function<void(long, double)>;
+
+namespace detail {
+// The checks after the solve, the same for both variants: true residual from x, error against u.
+template <class T>
+void finish(Kernels<T>& k, CgResult& res, double rr0, hpcgi::Timer& t) {
+  res.solve_s = t.seconds();
+  t.reset();
+  res.true_rel_residual = rr0 > 0 ? std::sqrt(k.true_residual2() / rr0) : 0.0;
+  res.error_inf = k.error_inf();
+  res.check_s = t.seconds();
+}
+}  // namespace detail
+
 // progress(iteration, relative residual) is called after every iteration (for a progress line on long runs).
 template <class T>
 CgResult run_cg(Kernels<T>& k, double tol, long max_iter,
-                const std::function<void(long, double)>& progress = nullptr) {
+                const CgProgress& progress = nullptr) {
   CgResult res;
   hpcgi::Timer t;
   double rr = k.init();
@@ -58,12 +75,63 @@ CgResult run_cg(Kernels<T>& k, double tol, long max_iter,
     k.calc_p(rr_new / rr);
     rr = rr_new;
   }
-  res.solve_s = t.seconds();
-  t.reset();
-  res.true_rel_residual = rr0 > 0 ? std::sqrt(k.true_residual2() / rr0) : 0.0;
-  res.error_inf = k.error_inf();
-  res.check_s = t.seconds();
+  detail::finish(k, res, rr0, t);
   return res;
+}
+
+// Chronopoulos and Gear (1989): with γ_k = r_k·r_k and δ_k = r_k·Ar_k from the previous sweep,
+//   β_k = γ_k / γ_{k-1},  p_k·Ap_k = δ_k - β_k γ_k / α_{k-1},  α_k = γ_k / p_k·Ap_k,
+// (p_k·Ap_k = δ_k - β_k² p_{k-1}·Ap_{k-1} since p_{k-1}·Ar_k = 0), so both scalars of step k are known before the
+// sweep that applies them, and one reduction of (γ, δ) per iteration replaces the two of the classic variant.
+template <class T>
+CgResult run_cg_onesweep(OneSweepKernels<T>& k, double tol, long max_iter, const CgProgress& progress = nullptr) {
+  CgResult res;
+  hpcgi::Timer t;
+  double rr = k.init();
+  const double rr0 = rr;
+  double rAr = rr0 > 0 ? k.r_Ar() : 0.0;
+  res.init_s = t.seconds();
+  t.reset();
+  res.status = rr0 == 0.0 ? "converged" : "max_iter";
+  double rr_prev = 0, alpha_prev = 0;
+  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+    const double beta = it == 1 ? 0.0 : rr / rr_prev;
+    const double pw = it == 1 ? rAr : rAr - beta * rr / alpha_prev;
+    if (!std::isfinite(pw) || pw <= 0.0) {
+      res.status = "breakdown";
+      res.breakdown = "p·Ap = " + std::to_string(pw) + " at iteration " + std::to_string(it) +
+                      " (from the Chronopoulos-Gear recurrence; must be finite and > 0 for a symmetric positive "
+                      "definite matrix)";
+      break;
+    }
+    const double alpha = rr / pw;
+    const SweepDots d = k.sweep(alpha, beta);
+    res.iterations = it;
+    if (!std::isfinite(d.rr) || !std::isfinite(d.rAr)) {
+      res.status = "breakdown";
+      res.breakdown = "r·r or r·Ar is not finite at iteration " + std::to_string(it);
+      break;
+    }
+    res.rel_residual = std::sqrt(d.rr / rr0);
+    if (progress) progress(it, res.rel_residual);
+    if (res.rel_residual <= tol) res.status = "converged";
+    rr_prev = rr;
+    rr = d.rr;
+    rAr = d.rAr;
+    alpha_prev = alpha;
+  }
+  detail::finish(k, res, rr0, t);
+  return res;
+}
+
+// Runs the variant the backend was made for (cfg.variant; make_kernels refused a variant it does not have).
+template <class T>
+CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long max_iter,
+                     const CgProgress& progress = nullptr) {
+  if (variant == "classic") return run_cg(k, tol, max_iter, progress);
+  auto* s = dynamic_cast<OneSweepKernels<T>*>(&k);
+  if (variant != "onesweep" || !s) throw hpcgi::UsageError("this backend has no variant '" + variant + "'");
+  return run_cg_onesweep(*s, tol, max_iter, progress);
 }
 
 }  // namespace poisson

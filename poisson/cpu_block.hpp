@@ -1,42 +1,65 @@
 // The CPU kernels of the openmp and mpi backends, written once: a block of rows [y0, y0 + ny) of the N×N grid,
-// stored with one ghost row above and below and one zero ghost column left and right, so that the stencil has no
-// branches. Loops are OpenMP-parallel over rows with the same static schedule everywhere, and the arrays are
-// first touched by that schedule, so each thread works on the memory that sits next to its core.
-// Dots are accumulated in double and are local to the block: the caller reduces them across ranks.
+// stored with two ghost rows above and below (the one-sweep variant reads two rows beyond its own; the classic
+// kernels one) and one zero ghost column left and right, so that the stencil has no branches. Loops are
+// OpenMP-parallel over rows with the same static schedule everywhere (OpenMP's: the first ny mod T threads get one
+// row more), and the arrays are first touched by that schedule, so each thread works on the memory that sits next
+// to its core. Dots are accumulated in double and are local to the block: the caller reduces them across ranks.
 #pragma once
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/memory.hpp"
+#include "poisson/kernels.hpp"
 #include "poisson/problem.hpp"
 
 namespace poisson {
 
+// Rows [begin, end) of thread t out of nt over rows [0, ny): the split of OpenMP's schedule(static).
+inline std::pair<long, long> static_rows(long ny, int t, int nt) {
+  const long q = ny / nt, rem = ny % nt;
+  const long begin = t * q + std::min<long>(t, rem);
+  return {begin, begin + q + (t < rem ? 1 : 0)};
+}
+
 template <class T>
 class CpuBlock {
  public:
+  // Rows [y0, y0 + ny) of the N×N grid, N = n: the one-sweep variant needs y0 to tell the ghost rows outside the
+  // grid (always zero) from those that hold a neighbour's rows.
   CpuBlock(long n, long y0, long ny)
       : g_{n}, n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
         x_(new T[size_]), r_(new T[size_]), p_(new T[size_]), w_(new T[size_]), b_(new T[size_]) {
-    // First touch in the loop schedule of the kernels; ghost rows and columns are zero.
-#pragma omp parallel for schedule(static)
-    for (long jl = -1; jl <= ny_; ++jl)
+    // First touch of the interior rows in the loop schedule of the kernels; ghost rows and columns are zero.
+    auto touch = [this](long jl) {
       for (long c = 0; c < s_; ++c) {
-        const long k = (jl + 1) * s_ + c;
+        const long k = (jl + kGhost) * s_ + c;
         x_[k] = r_[k] = p_[k] = w_[k] = 0;
         const long i = c - 1, j = y0_ + jl;
         b_[k] = (jl >= 0 && jl < ny_ && i >= 0 && i < n_) ? static_cast<T>(g_.b(i, j)) : T(0);
       }
+    };
+#pragma omp parallel for schedule(static)
+    for (long jl = 0; jl < ny_; ++jl) touch(jl);
+    for (long g = 1; g <= kGhost; ++g) {
+      touch(-g);
+      touch(ny_ - 1 + g);
+    }
   }
 
+  static constexpr long kGhost = 2;
   long rows() const { return ny_; }
   long stride() const { return s_; }
-  // Row jl of a vector, jl = -1 and jl = ny are the ghost rows; element 0 of a row is the left ghost column.
-  T* row(T* v, long jl) const { return v + (jl + 1) * s_; }
+  // Row jl of a vector, jl = -2, -1 and ny, ny + 1 are the ghost rows; element 0 of a row is the left ghost
+  // column. Rows are contiguous, so ghost rows -2, -1 (and ny, ny + 1) are one block of 2 s values.
+  T* row(T* v, long jl) const { return v + (jl + kGhost) * s_; }
   T* x() { return x_.get(); }
   T* p() { return p_.get(); }
+  T* r() { return r_.get(); }
 
   double init() {
     double rr = 0;
@@ -99,6 +122,48 @@ class CpuBlock {
     }
   }
 
+  // Local r·Ar (ghost rows -1 and ny of r must hold the neighbours' rows).
+  double r_Ar() {
+    double s = 0;
+#pragma omp parallel for schedule(static) reduction(+ : s)
+    for (long jl = 0; jl < ny_; ++jl) s += row_dot_stencil(row(r_.get(), jl - 1), row(r_.get(), jl),
+                                                           row(r_.get(), jl + 1));
+    return s;
+  }
+
+  // The one-sweep iteration on the block (ghost rows -2, -1, ny, ny + 1 of r and p must hold the neighbours'
+  // rows): p = r + βp, x += αp, r -= α Ap; returns the local r·r and r·Ar of the new r.
+  // Each thread walks down its rows once, in place: at row y it makes p_k[y] (into a ring of 3 rows, and into p),
+  // then r_{k+1}[y-1] from the ring (into a second ring, and into r), then the r·Ar term of row y-2. A thread's
+  // rows need two rows of old r and p beyond each end, which its neighbours overwrite as they go: every thread
+  // first copies the rows it needs, then all wait at one barrier, then sweep. Rows outside the grid stay zero.
+  SweepDots sweep(double alpha, double beta) {
+    const T a = static_cast<T>(alpha), b = static_cast<T>(beta);
+    const int nt = omp_get_max_threads();
+    if (static_cast<int>(scratch_.size()) != nt) scratch_.assign(nt, Scratch(s_));
+    double rr = 0, rar = 0;
+#pragma omp parallel num_threads(nt) reduction(+ : rr, rar)
+    {
+      const int t = omp_get_thread_num();
+      const auto [y0, y1] = static_rows(ny_, t, omp_get_num_threads());
+      Scratch& sc = scratch_[t];
+      if (y1 > y0)
+        for (int k = 0; k < 2; ++k) {  // old r and p of rows y0-2, y0-1 and y1, y1+1
+          std::copy_n(row(r_.get(), y0 - 2 + k), s_, sc.edge_r(k));
+          std::copy_n(row(p_.get(), y0 - 2 + k), s_, sc.edge_p(k));
+          std::copy_n(row(r_.get(), y1 + k), s_, sc.edge_r(2 + k));
+          std::copy_n(row(p_.get(), y1 + k), s_, sc.edge_p(2 + k));
+        }
+#pragma omp barrier
+      if (y1 > y0) {
+        const SweepDots d = sweep_rows(y0, y1, a, b, sc);
+        rr += d.rr;
+        rar += d.rAr;
+      }
+    }
+    return {rr, rar};
+  }
+
   // Local ‖b - A x‖² (ghost rows of x must hold the neighbours' rows).
   double true_residual2() {
     double s = 0;
@@ -132,9 +197,91 @@ class CpuBlock {
   }
 
  private:
-  // (ny + 2)(n + 2) values per vector; refuses a block whose 5 vectors will not fit in memory.
+  // A thread's rows for the sweep: the copied edge rows (old r and p of y0-2, y0-1, y1, y1+1) and the two rings
+  // of three rows (row y in slot y mod 3). 14 rows of a few kB, allocated once per thread count; ghost columns
+  // stay zero.
+  struct Scratch {
+    explicit Scratch(long s) : s(s), buf(14 * s, T(0)) {}
+    long s;
+    std::vector<T> buf;
+    T* edge_r(int k) { return buf.data() + k * s; }
+    T* edge_p(int k) { return buf.data() + (4 + k) * s; }
+    T* ring_p(long y) { return buf.data() + (8 + (y + 3) % 3) * s; }  // y >= -3
+    T* ring_r(long y) { return buf.data() + (11 + (y + 3) % 3) * s; }
+  };
+
+  // Σ_c u_c (A u)_c over one row, with the rows above and below.
+  double row_dot_stencil(const T* __restrict up, const T* __restrict u, const T* __restrict dn) const {
+    double s = 0;
+#pragma omp simd reduction(+ : s)
+    for (long c = 1; c <= n_; ++c)
+      s += static_cast<double>(u[c]) * static_cast<double>(4 * u[c] - u[c - 1] - u[c + 1] - up[c] - dn[c]);
+    return s;
+  }
+
+  SweepDots sweep_rows(long y0, long y1, T a, T b, Scratch& sc) {
+    // Old r and p of row y: the thread's own rows in place (not yet overwritten when read), the others' copies.
+    auto old_r = [&](long y) -> const T* {
+      return y < y0 ? sc.edge_r(int(y - y0 + 2)) : y >= y1 ? sc.edge_r(int(2 + y - y1)) : row(r_.get(), y);
+    };
+    auto old_p = [&](long y) -> const T* {
+      return y < y0 ? sc.edge_p(int(y - y0 + 2)) : y >= y1 ? sc.edge_p(int(2 + y - y1)) : row(p_.get(), y);
+    };
+    auto in_grid = [&](long y) { return y0_ + y >= 0 && y0_ + y < n_; };
+    double rr = 0, rar = 0;
+    for (long y = y0 - 2; y <= y1 + 1; ++y) {
+      // p_k of row y; on own rows also into p, and x += α p_k.
+      {
+        const T* __restrict ro = old_r(y);
+        const T* __restrict po = old_p(y);
+        T* __restrict pk = sc.ring_p(y);
+#pragma omp simd
+        for (long c = 1; c <= n_; ++c) pk[c] = ro[c] + b * po[c];
+        if (y >= y0 && y < y1) {
+          T* __restrict p = row(p_.get(), y);
+          T* __restrict x = row(x_.get(), y);
+#pragma omp simd
+          for (long c = 1; c <= n_; ++c) {
+            p[c] = pk[c];
+            x[c] += a * pk[c];
+          }
+        }
+      }
+      // r_{k+1} of row q = y - 1 = r_k - α A p_k; on own rows also into r, with its r·r.
+      const long q = y - 1;
+      if (q >= y0 - 1) {
+        T* __restrict rn = sc.ring_r(q);
+        if (!in_grid(q)) {
+          std::fill_n(rn, s_, T(0));
+        } else {
+          const T* __restrict ro = old_r(q);
+          const T* __restrict pu = sc.ring_p(q - 1);
+          const T* __restrict pc = sc.ring_p(q);
+          const T* __restrict pd = sc.ring_p(q + 1);
+#pragma omp simd
+          for (long c = 1; c <= n_; ++c) rn[c] = ro[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c]);
+          if (q >= y0 && q < y1) {
+            T* __restrict r = row(r_.get(), q);
+            double s = 0;
+#pragma omp simd reduction(+ : s)
+            for (long c = 1; c <= n_; ++c) {
+              r[c] = rn[c];
+              s += static_cast<double>(rn[c]) * rn[c];
+            }
+            rr += s;
+          }
+        }
+      }
+      // r·Ar of row z = y - 2, from the ring of new r.
+      const long z = y - 2;
+      if (z >= y0 && z < y1) rar += row_dot_stencil(sc.ring_r(z - 1), sc.ring_r(z), sc.ring_r(z + 1));
+    }
+    return {rr, rar};
+  }
+
+  // (ny + 4)(n + 2) values per vector; refuses a block whose 5 vectors will not fit in memory.
   static long checked_size(long n, long ny) {
-    const long size = (ny + 2) * (n + 2);
+    const long size = (ny + 2 * kGhost) * (n + 2);
     hpcgi::require_host_memory("N = " + std::to_string(n) + " (" + std::to_string(ny) + " rows here)",
                                5.0 * sizeof(T) * static_cast<double>(size));
     return size;
@@ -143,6 +290,7 @@ class CpuBlock {
   Grid g_;
   long n_, y0_, ny_, s_, size_;
   std::unique_ptr<T[]> x_, r_, p_, w_, b_;
+  std::vector<Scratch> scratch_;
 };
 
 }  // namespace poisson

@@ -1,7 +1,12 @@
-// Our best CUDA backend: three fused kernels (TeaLeaf's cg_calc_w, cg_calc_ur, cg_calc_p), each dot reduced once
-// inside its kernel (warp shuffles, one double atomicAdd per block into a device scalar, accumulated in double
-// also for float vectors), one 8-byte copy back per dot, no other synchronisation.
-// One iteration: [w = Ap, p·w] 2 vectors, [x += αp, r -= αw, r·r] 6, [p = r + βp] 3: 11.
+// Our best CUDA backend, in both variants of kernels.hpp. Every dot is reduced once inside its kernel (warp
+// shuffles, one double atomicAdd per block into a device scalar, accumulated in double also for float vectors),
+// one small copy back per reduction, no other synchronisation.
+//   classic:  three fused kernels (TeaLeaf's cg_calc_w, cg_calc_ur, cg_calc_p): [w = Ap, p·w] 2 vectors,
+//             [x += αp, r -= αw, r·r] 6, [p = r + βp] 3: 11.
+//   onesweep: one kernel per iteration (sweep_kernel): read r, p, x, write r, p, x: 6 vectors, plus the halo
+//             rows and columns each tile recomputes.
+#include <memory>
+
 #include "poisson/backends.hpp"
 #include "poisson/gpu_base.cuh"
 
@@ -59,39 +64,143 @@ __global__ void __launch_bounds__(kBlock) calc_p_kernel(long n, long s, T beta, 
   FOR_INTERIOR(n, s, k, idx) { p[idx] = r[idx] + beta * p[idx]; }
 }
 
+// The one-sweep iteration (kernels.hpp): p = r + βp, x += αp, r -= α Ap, with r·r and r·Ar of the new r. Blocks
+// run in any order, so r and p are read from one buffer and written to another (x only at a block's own points,
+// in place). A block updates kSweepCols columns and kSweepRows rows, one thread per column of the tile plus two
+// halo columns each side, marching down its rows like the CPU sweep: at row y every thread makes p_k[y] (into a
+// shared ring of three rows), then r_{k+1}[y-1] from the ring (into a second ring), then the r·Ar term of row y-2.
+// The halo (two rows and columns each side) is recomputed from the old r and p, never exchanged.
+constexpr int kSweepThreads = 128;
+constexpr int kSweepCols = kSweepThreads - 4;
+constexpr int kSweepRows = 32;
+
 template <class T>
-class Cuda final : public GpuBase<T> {
-  using B = GpuBase<T>;
+__global__ void __launch_bounds__(kSweepThreads)
+    sweep_kernel(long n, long s, T alpha, T beta, const T* __restrict__ r_old, const T* __restrict__ p_old,
+                 T* __restrict__ r_new, T* __restrict__ p_new, T* __restrict__ x, double* dots) {
+  __shared__ T ring_p[3][kSweepThreads];  // row y in slot (y + 3) % 3
+  __shared__ T ring_r[3][kSweepThreads];
+  const int t = threadIdx.x;
+  const long c = static_cast<long>(blockIdx.x) * kSweepCols - 2 + t;  // grid column 0..n-1 (padded c + 1)
+  const long y0 = static_cast<long>(blockIdx.y) * kSweepRows;
+  const long y1 = min(y0 + kSweepRows, n);
+  const bool col_in = c >= 0 && c < n;
+  const bool own_col = col_in && t >= 2 && t < kSweepThreads - 2;
+  const bool mid_col = col_in && t >= 1 && t < kSweepThreads - 1;  // has both neighbours in the ring
+  double rr = 0, rar = 0;
+  T r_above = 0;  // old r of row y - 1 in this column, read at the previous step
+  for (long y = y0 - 2; y <= y1 + 1; ++y) {
+    const long idx = (y + 1) * s + c + 1;
+    T ro = 0, pk = 0;
+    if (col_in && y >= 0 && y < n) {
+      ro = r_old[idx];
+      pk = ro + beta * p_old[idx];
+      if (own_col && y >= y0 && y < y1) {
+        p_new[idx] = pk;
+        x[idx] += alpha * pk;
+      }
+    }
+    ring_p[(y + 3) % 3][t] = pk;
+    __syncthreads();
+    const long q = y - 1;
+    if (q >= y0 - 1) {
+      T rn = 0;
+      if (mid_col && q >= 0 && q < n) {
+        const T* pc = ring_p[(q + 3) % 3];
+        const T ap = 4 * pc[t] - pc[t - 1] - pc[t + 1] - ring_p[(q + 2) % 3][t] - ring_p[(q + 4) % 3][t];
+        rn = r_above - alpha * ap;
+        if (own_col && q >= y0 && q < y1) {
+          r_new[idx - s] = rn;
+          rr += static_cast<double>(rn) * rn;
+        }
+      }
+      ring_r[(q + 3) % 3][t] = rn;
+    }
+    r_above = ro;
+    __syncthreads();
+    const long z = y - 2;
+    if (own_col && z >= y0 && z < y1) {
+      const T* rc = ring_r[(z + 3) % 3];
+      const T u = rc[t];
+      rar += static_cast<double>(u) *
+             (4 * u - rc[t - 1] - rc[t + 1] - ring_r[(z + 2) % 3][t] - ring_r[(z + 4) % 3][t]);
+    }
+  }
+  block_sum_into(rr, dots);
+  block_sum_into(rar, dots + 1);
+}
+
+template <class T>
+class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
+  using B = GpuBase<T, OneSweepKernels<T>>;
 
  public:
-  explicit Cuda(const Config& cfg) : B(cfg, "cuda"), sum_(1) {
+  explicit Cuda(const Config& cfg) : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), sum_(2) {
     int dev = 0, sms = 0;
     CUDA_CHECK(cudaGetDevice(&dev));
     CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     const long pts = B::n_ * B::n_;
     blocks_ = static_cast<unsigned>(std::min<long>((pts + kBlock - 1) / kBlock, 8L * sms));
-    CUDA_CHECK(cudaMallocHost(&host_sum_, sizeof(double)));
+    CUDA_CHECK(cudaMallocHost(&host_sum_, 2 * sizeof(double)));
+    if (onesweep_) {
+      // The second buffer of p (w, which onesweep does not use, is the second buffer of r).
+      hpcgi::require_device_memory("backend cuda --variant onesweep at N = " + std::to_string(B::n_),
+                                   static_cast<double>(B::size_) * sizeof(T));
+      p_spare_ = std::make_unique<hpcgi::DeviceArray<T>>(B::size_);
+      CUDA_CHECK(cudaMemset(p_spare_->get(), 0, B::size_ * sizeof(T)));
+    }
   }
   ~Cuda() override { cudaFreeHost(host_sum_); }
+
+  double init() override {
+    const double rr = B::init_vectors();
+    cur_r_ = B::r_.get();
+    cur_p_ = B::p_.get();
+    next_r_ = B::w_.get();
+    if (p_spare_) next_p_ = p_spare_->get();
+    return rr;
+  }
 
   double calc_w() override {
     zero();
     calc_w_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, B::p_.get(), B::w_.get(), sum_.get());
     CUDA_CHECK_LAUNCH();
-    return fetch();
+    return fetch(1)[0];
   }
   double calc_ur(double alpha) override {
     zero();
     calc_ur_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, static_cast<T>(alpha), B::p_.get(), B::w_.get(),
                                            B::x_.get(), B::r_.get(), sum_.get());
     CUDA_CHECK_LAUNCH();
-    return fetch();
+    return fetch(1)[0];
   }
   void calc_p(double beta) override {
     calc_p_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, static_cast<T>(beta), B::r_.get(), B::p_.get());
     CUDA_CHECK_LAUNCH();
   }
-  int vectors_per_iteration() const override { return 11; }
+
+  // δ_0 = r·Ar by the classic stencil kernel; its w = Ar lands in the next r buffer, which the first sweep
+  // overwrites everywhere inside the grid.
+  double r_Ar() override {
+    zero();
+    calc_w_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, cur_r_, next_r_, sum_.get());
+    CUDA_CHECK_LAUNCH();
+    return fetch(1)[0];
+  }
+  SweepDots sweep(double alpha, double beta) override {
+    zero();
+    const dim3 grid(static_cast<unsigned>((B::n_ + kSweepCols - 1) / kSweepCols),
+                    static_cast<unsigned>((B::n_ + kSweepRows - 1) / kSweepRows));
+    sweep_kernel<T><<<grid, kSweepThreads>>>(B::n_, B::s_, static_cast<T>(alpha), static_cast<T>(beta), cur_r_,
+                                             cur_p_, next_r_, next_p_, B::x_.get(), sum_.get());
+    CUDA_CHECK_LAUNCH();
+    std::swap(cur_r_, next_r_);
+    std::swap(cur_p_, next_p_);
+    const double* d = fetch(2);
+    return {d[0], d[1]};
+  }
+
+  int vectors_per_iteration() const override { return onesweep_ ? 6 : 11; }
   std::map<std::string, std::string> info() const override {
     auto i = B::info();
     i["dot"] = "fused, double accumulation";
@@ -99,15 +208,19 @@ class Cuda final : public GpuBase<T> {
   }
 
  private:
-  void zero() { CUDA_CHECK(cudaMemsetAsync(sum_.get(), 0, sizeof(double))); }
-  double fetch() {
-    CUDA_CHECK(cudaMemcpyAsync(host_sum_, sum_.get(), sizeof(double), cudaMemcpyDeviceToHost));
+  void zero() { CUDA_CHECK(cudaMemsetAsync(sum_.get(), 0, 2 * sizeof(double))); }
+  const double* fetch(int count) {
+    CUDA_CHECK(cudaMemcpyAsync(host_sum_, sum_.get(), count * sizeof(double), cudaMemcpyDeviceToHost));
     CUDA_CHECK(cudaStreamSynchronize(0));
-    return *host_sum_;
+    return host_sum_;
   }
+  bool onesweep_;
   hpcgi::DeviceArray<double> sum_;
   double* host_sum_ = nullptr;
   unsigned blocks_ = 1;
+  std::unique_ptr<hpcgi::DeviceArray<T>> p_spare_;
+  // onesweep: the current and next buffers of r and p, swapped after every sweep.
+  T *cur_r_ = nullptr, *cur_p_ = nullptr, *next_r_ = nullptr, *next_p_ = nullptr;
 };
 
 }  // namespace

@@ -24,8 +24,9 @@ __global__ void stencil_kernel(long n, long s, const T* __restrict__ in, T* __re
   out[idx] = 4 * in[idx] - in[idx - 1] - in[idx + 1] - in[idx - s] - in[idx + s];
 }
 
-template <class T>
-class GpuBase : public Kernels<T> {
+// Base is Kernels<T>, or OneSweepKernels<T> for a backend that also runs the one-sweep variant.
+template <class T, class Base = Kernels<T>>
+class GpuBase : public Base {
  protected:
   GpuBase(const Config& cfg, const std::string& name)
       : n_((hpcgi::require_gpu("backend " + name), cfg.n)), s_(cfg.n + 2), size_(s_ * s_),

@@ -1,6 +1,11 @@
 // The contract every Poisson CG backend fulfils (after TeaLeaf): the CG algorithm lives once in cg.hpp, each
 // backend supplies the same fused kernels on its own memory. Scalars cross the interface in double; vectors live
 // in the backend in precision T (float or double). Dots are global (MPI backends reduce across ranks).
+// Two variants of the iteration (../shared/notes/cg-data-movement.md):
+//   classic:  three fused kernels [w = Ap, p·w], [x, r, r·r], [p]: 11 vectors of N² streamed per iteration;
+//   onesweep: Chronopoulos-Gear CG, one pass [p, x, r, r·r, r·Ar] that recomputes Ap and Ar from rows in cache
+//             and stores no w: read r, p, x, write r, p, x, 6 vectors. Backends that run it derive from
+//             OneSweepKernels.
 #pragma once
 #include <map>
 #include <memory>
@@ -16,6 +21,7 @@ struct Config {
   std::string backend = "serial";
   std::string halo = "nonblocking";  // mpi: MPI_Isend/Irecv or MPI_Send/Recv
   int threads = 0;                   // 0: the OpenMP default (OMP_NUM_THREADS or all cores)
+  std::string variant = "classic";   // classic | onesweep (see above)
 };
 
 template <class T>
@@ -44,17 +50,41 @@ class Kernels {
   virtual bool is_root() const { return true; }
 };
 
+// What one sweep returns: γ = r·r and δ = r·Ar of the new residual.
+struct SweepDots {
+  double rr = 0, rAr = 0;
+};
+
+// A backend that also runs the one-sweep variant. With α_k, β_k from the recurrences of cg.hpp, one sweep does
+//   p = r + β p;  x += α p;  r -= α A p;  returns r·r and r·A r of the new r,
+// reading r, p, x and writing them once; Ap and Ar are recomputed from neighbouring rows, never stored.
+template <class T>
+class OneSweepKernels : public Kernels<T> {
+ public:
+  // r·Ar of the current r (after init: the δ_0 of the first step).
+  virtual double r_Ar() = 0;
+  virtual SweepDots sweep(double alpha, double beta) = 0;
+};
+
 // Every backend name this program knows, and whether it was built in this binary (with the reason if not).
 struct BackendEntry {
   std::string name;
   std::string summary;
   bool built;
   std::string why_not;
+  bool onesweep;  // runs --variant onesweep (and uses it by default)
 };
 const std::vector<BackendEntry>& backends();
 
+// The variant a backend runs when none is asked for: onesweep in double where the backend has it (6 vectors
+// instead of 11, the same iterations and solution), classic elsewhere. In float, onesweep's recurrence for p·Ap
+// loses accuracy as the float vectors lose conjugacy: it takes 10-25% more iterations (N = 128..512), so float
+// keeps classic. Throws hpcgi::UsageError for an unknown backend.
+std::string default_variant(const std::string& backend, const std::string& precision);
+
 // Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
-// this binary, or one whose hardware is absent (a CUDA backend on a machine without a GPU).
+// this binary, one whose hardware is absent (a CUDA backend on a machine without a GPU), or a variant the backend
+// does not have.
 template <class T>
 std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg);
 

@@ -24,6 +24,7 @@ namespace {
 
 struct Args {
   poisson::Config cfg;
+  std::string variant;  // empty: the backend's default (poisson::default_variant)
   double tol = 1e-6;
   long max_iter = 0;
   std::string precision = "double";
@@ -70,7 +71,7 @@ int solve(const Args& a) {
       since_print.reset();
     }
   };
-  const poisson::CgResult r = poisson::run_cg(*k, a.tol, max_iter, progress);
+  const poisson::CgResult r = poisson::run_variant(*k, a.cfg.variant, a.tol, max_iter, progress);
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   const auto info = k->info();
   if (!root) return r.status == "breakdown" ? hpcgi::kExitNumerical : hpcgi::kExitOk;
@@ -81,7 +82,8 @@ int solve(const Args& a) {
   const double gbps = per_iter > 0 ? bytes_per_iter / per_iter / 1e9 : 0.0;
 
   nlohmann::json rec = hpcgi::record::make("poisson");
-  rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"precision", a.precision},
+  rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"variant", a.cfg.variant},
+                   {"precision", a.precision},
                    {"tol", a.tol},         {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
                    {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
   if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
@@ -103,7 +105,8 @@ int solve(const Args& a) {
   rec["backend_info"] = info;
 
   if (!a.quiet) {
-    std::printf("poisson: N=%ld backend=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(), a.precision.c_str());
+    std::printf("poisson: N=%ld backend=%s variant=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(),
+                a.cfg.variant.c_str(), a.precision.c_str());
     for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
     std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
                 r.status.c_str(), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
@@ -125,7 +128,8 @@ int solve(const Args& a) {
 std::string backend_help() {
   std::string s = "Backends:\n";
   for (const auto& b : poisson::backends()) {
-    s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary;
+    s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary +
+         (b.onesweep ? " [variants: onesweep (default in double), classic]" : " [variant: classic]");
     if (!b.built) s += " [NOT BUILT: " + b.why_not + "]";
     s += "\n";
   }
@@ -147,6 +151,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-iter", a.max_iter, "iteration limit (default max(1000, 4N))")->check(CLI::PositiveNumber);
   app.add_option("--precision", a.precision, "precision of vectors and stencil (dots accumulate in double)")
       ->check(CLI::IsMember({"double", "float"}))->capture_default_str();
+  app.add_option("--variant", a.variant,
+                 "classic: three fused kernels, 11 vectors per iteration; onesweep: Chronopoulos-Gear CG in one pass, "
+                 "6 vectors (default in double where the backend has it, see below)")
+      ->check(CLI::IsMember({"classic", "onesweep"}));
   app.add_option("--halo", a.cfg.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
       ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
@@ -162,6 +170,7 @@ int main(int argc, char** argv) {
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
 
   return hpcgi::run_main("poisson", [&]() -> int {
+    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision) : a.variant;
     const bool mpi = a.cfg.backend == "mpi";
     if (!mpi && launched_by_mpirun_with_many_ranks())
       throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");

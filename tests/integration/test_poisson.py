@@ -42,21 +42,35 @@ def assert_matches(rec, x, ref):
     assert rel <= 1e-10, rel
 
 
+@pytest.mark.parametrize("variant", ["classic", "onesweep"])
 @pytest.mark.parametrize("threads", [1, 2, 3])
-def test_openmp_matches_serial(tmp_path, serial100, threads):
-    rec, x = solve(tmp_path, "omp", "--n", 100, "--backend", "openmp", "--threads", threads)
-    assert rec["params"]["threads"] == threads
+def test_openmp_matches_serial(tmp_path, serial100, threads, variant):
+    rec, x = solve(tmp_path, "omp", "--n", 100, "--backend", "openmp", "--threads", threads, "--variant", variant)
+    assert rec["params"]["threads"] == threads and rec["params"]["variant"] == variant
     assert_matches(rec, x, serial100)
 
 
+@pytest.mark.parametrize("backend,precision,variant,vectors", [
+    ("openmp", "double", "onesweep", 6), ("openmp", "float", "classic", 11), ("serial", "double", "classic", 13)])
+def test_default_variant_is_recorded(backend, precision, variant, vectors):
+    p, rec = poisson("--n", 32, "--backend", backend, "--precision", precision)
+    assert p.returncode == 0, p.stderr
+    assert rec["params"]["variant"] == variant
+    assert rec["perf"]["vectors_per_iteration"] == vectors
+
+
+# N = 5 on 3, 4 and 7 ranks leaves ranks with one row or none: onesweep's two halo rows then come from two ranks
+# away (passed on in a second round); on 2 ranks they go in one message.
 @requires_mpi
+@pytest.mark.parametrize("variant", ["classic", "onesweep"])
 @pytest.mark.parametrize("n", [5, 100])
 @pytest.mark.parametrize("ranks", [1, 2, 3, 4, 7])
 @pytest.mark.parametrize("halo", ["nonblocking", "blocking"])
-def test_mpi_matches_serial(tmp_path, n, ranks, halo):
+def test_mpi_matches_serial(tmp_path, n, ranks, halo, variant):
     ref = solve(tmp_path, "ser", "--n", n, "--backend", "serial")
-    rec, x = solve(tmp_path, "mpi", "--n", n, "--backend", "mpi", "--halo", halo, np_=ranks)
+    rec, x = solve(tmp_path, "mpi", "--n", n, "--backend", "mpi", "--halo", halo, "--variant", variant, np_=ranks)
     assert rec["params"]["ranks"] == ranks and rec["params"]["halo"] == halo
+    assert rec["params"]["variant"] == variant
     assert_matches(rec, x, ref)
 
 
@@ -106,6 +120,8 @@ BAD = [
     ["--backend", "fortran"],
     ["--precision", "half"],
     ["--halo", "sometimes"],
+    ["--variant", "pipelined"],
+    ["--backend", "serial", "--variant", "onesweep"],
     ["--threads", "0"],
     ["--no-such-flag"],
 ]
@@ -137,10 +153,12 @@ def test_non_mpi_backend_under_mpirun_is_refused():
     assert "use --backend mpi" in p.stderr
 
 
-@pytest.mark.parametrize("backend", ["cublas1", "cublas2", "cuda"])
+@pytest.mark.parametrize("backend,variant", [("cublas1", "classic"), ("cublas2", "classic"), ("cuda", "classic"),
+                                             ("cuda", "onesweep")])
 @pytest.mark.parametrize("precision", ["double", "float"])
-def test_gpu_backend_matches_serial(tmp_path, requires_gpu, serial100, backend, precision):
-    rec, x = solve(tmp_path, backend, "--n", 100, "--backend", backend, "--precision", precision)
+def test_gpu_backend_matches_serial(tmp_path, requires_gpu, serial100, backend, variant, precision):
+    rec, x = solve(tmp_path, backend, "--n", 100, "--backend", backend, "--precision", precision, "--variant", variant)
+    assert rec["params"]["variant"] == variant
     assert rec["backend_info"]["gpu"]
     if precision == "double":
         assert_matches(rec, x, serial100)
@@ -148,6 +166,13 @@ def test_gpu_backend_matches_serial(tmp_path, requires_gpu, serial100, backend, 
         ref_rec, ref_x = serial100
         assert rec["result"]["status"] == "converged"
         assert np.max(np.abs(x - ref_x)) <= 1e-3 * np.max(np.abs(ref_x))
+
+
+# N = 300 spans three tiles of the one-sweep kernel across and ten down: tile edges are where it could go wrong.
+def test_cuda_onesweep_across_tiles_matches_serial(tmp_path, requires_gpu):
+    ref = solve(tmp_path, "ser", "--n", 300, "--backend", "serial")
+    rec, x = solve(tmp_path, "cuda", "--n", 300, "--backend", "cuda", "--variant", "onesweep")
+    assert_matches(rec, x, ref)
 
 
 def test_help_lists_backends_and_exits_0():

@@ -1,6 +1,7 @@
 // CG on every CPU backend against a reference none of them shares: a dense Gaussian elimination of the same
-// 5-point system, and the backends against each other (same iterations, same solution).
+// 5-point system, and the backends and variants against each other (same iterations, same solution).
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <vector>
@@ -62,23 +63,33 @@ struct CgRun {
 };
 
 template <class T>
-CgRun run(const std::string& backend, long n, double tol) {
+CgRun run(const std::string& backend, long n, double tol, const std::string& variant = "classic") {
   poisson::Config cfg;
   cfg.n = n;
   cfg.backend = backend;
+  cfg.variant = variant;
   auto k = poisson::make_kernels<T>(cfg);
-  CgRun r{poisson::run_cg(*k, tol, 100000), {}};
+  CgRun r{poisson::run_variant(*k, variant, tol, 100000), {}};
   r.x = k->solution();
   return r;
 }
+
+// Sets the OpenMP thread count for one scope.
+struct Threads {
+  explicit Threads(int t) : old(omp_get_max_threads()) { omp_set_num_threads(t); }
+  ~Threads() { omp_set_num_threads(old); }
+  int old;
+};
 
 }  // namespace
 
 TEST(Cg, MatchesDenseDirectSolve) {
   for (long n : {1L, 2L, 3L, 7L, 12L}) {
     const auto ref = dense_solve(n);
-    for (const char* b : {"serial", "openmp"}) {
-      CgRun r = run<double>(b, n, 1e-13);
+    for (const char* b : {"serial", "openmp", "openmp onesweep"}) {
+      const std::string name = b;
+      const bool onesweep = name == "openmp onesweep";
+      CgRun r = run<double>(onesweep ? "openmp" : b, n, 1e-13, onesweep ? "onesweep" : "classic");
       EXPECT_EQ(r.res.status, "converged") << b << " n=" << n;
       EXPECT_LT(max_rel_diff(r.x, ref), 1e-11) << b << " n=" << n;
       // In exact arithmetic CG ends in at most as many steps as the matrix has distinct eigenvalues (≤ N²).
@@ -94,6 +105,57 @@ TEST(Cg, OpenMpMatchesSerialAtN100) {
   EXPECT_LE(std::abs(s.res.iterations - o.res.iterations), 1);
   EXPECT_LT(max_rel_diff(o.x, s.x), 1e-10);
   EXPECT_NEAR(o.res.error_inf, s.res.error_inf, 1e-10 * s.res.error_inf);
+}
+
+// The one-sweep variant against the serial reference, with thread counts that leave threads with 0, 1, 2 or
+// many rows (each thread recomputes two rows of its neighbours: the edges are where it can go wrong).
+TEST(Cg, OneSweepMatchesSerialForAnyThreadCount) {
+  for (long n : {3L, 5L, 100L}) {
+    CgRun s = run<double>("serial", n, 1e-6);
+    for (int t : {1, 2, 3, 4, 7}) {
+      Threads scope(t);
+      CgRun o = run<double>("openmp", n, 1e-6, "onesweep");
+      EXPECT_EQ(o.res.status, "converged") << "n=" << n << " threads=" << t;
+      EXPECT_LE(std::abs(s.res.iterations - o.res.iterations), 1) << "n=" << n << " threads=" << t;
+      EXPECT_LT(max_rel_diff(o.x, s.x), 1e-10) << "n=" << n << " threads=" << t;
+      EXPECT_NEAR(o.res.true_rel_residual, s.res.true_rel_residual, 1e-3 * s.res.true_rel_residual + 1e-15);
+    }
+  }
+}
+
+// Chronopoulos-Gear's recurrence for p·Ap is where it could drift from textbook CG: at N = 256 (400 iterations)
+// it must still take the same steps and reach the same true residual.
+TEST(Cg, OneSweepTakesTheSameStepsAsClassicAtN256) {
+  CgRun c = run<double>("openmp", 256, 1e-8, "classic");
+  CgRun o = run<double>("openmp", 256, 1e-8, "onesweep");
+  EXPECT_LE(std::abs(c.res.iterations - o.res.iterations), 1);
+  EXPECT_LT(max_rel_diff(o.x, c.x), 1e-10);
+  EXPECT_NEAR(o.res.true_rel_residual, c.res.true_rel_residual, 0.05 * c.res.true_rel_residual);
+  EXPECT_NEAR(o.res.error_inf, c.res.error_inf, 1e-8 * c.res.error_inf);
+}
+
+// In float the recurrence costs iterations (why float defaults to classic), but it converges to the same accuracy.
+TEST(Cg, OneSweepInFloatConvergesWithAFewMoreIterations) {
+  CgRun c = run<float>("openmp", 128, 1e-6, "classic");
+  CgRun o = run<float>("openmp", 128, 1e-6, "onesweep");
+  EXPECT_EQ(o.res.status, "converged");
+  EXPECT_GE(o.res.iterations, c.res.iterations - 1);
+  EXPECT_LE(o.res.iterations, 1.3 * c.res.iterations);
+  EXPECT_NEAR(o.res.error_inf, c.res.error_inf, 0.01 * c.res.error_inf);
+}
+
+TEST(Cg, VariantTheBackendLacksIsAUsageError) {
+  poisson::Config cfg;
+  cfg.n = 8;
+  cfg.backend = "serial";
+  cfg.variant = "onesweep";
+  EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
+  cfg.backend = "openmp";
+  cfg.variant = "pipelined";
+  EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
+  EXPECT_EQ(poisson::default_variant("openmp", "double"), "onesweep");
+  EXPECT_EQ(poisson::default_variant("openmp", "float"), "classic");
+  EXPECT_EQ(poisson::default_variant("serial", "double"), "classic");
 }
 
 TEST(Cg, TrueResidualTracksRecursiveInDouble) {
