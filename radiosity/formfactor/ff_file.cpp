@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "common/errors.hpp"
+#include "common/one_line.hpp"
 
 namespace radiosity {
 namespace {
@@ -54,7 +55,8 @@ void set_name(char (&field)[8], const std::string& s) {
   std::memcpy(field, s.data(), std::min(s.size(), sizeof field - 1));
 }
 
-std::string name_of(const char (&field)[8]) { return std::string(field, strnlen(field, sizeof field)); }
+// The name in a header field, fit to quote in a message (a corrupted field may hold any byte).
+std::string name_of(const char (&field)[8]) { return hpcgi::one_line({field, strnlen(field, sizeof field)}); }
 
 std::string hex(uint64_t v) {
   char buf[32];

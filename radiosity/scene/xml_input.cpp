@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "common/errors.hpp"
+#include "common/one_line.hpp"
 
 namespace radiosity {
 
@@ -55,7 +56,7 @@ size_t XmlInput::line(const pugi::xml_node& n) const { return line_at(text_, n.o
 std::string XmlInput::place(const pugi::xml_node& n) const { return origin_ + ":" + std::to_string(line(n)); }
 
 void XmlInput::fail(const pugi::xml_node& n, const std::string& what) const {
-  throw hpcgi::UsageError(place(n) + ": " + what);
+  throw hpcgi::UsageError(place(n) + ": " + hpcgi::one_line(what));
 }
 
 void XmlInput::allow_only(const pugi::xml_node& n, const std::vector<std::string>& allowed) const {

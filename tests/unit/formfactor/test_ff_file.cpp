@@ -161,3 +161,16 @@ TEST_F(FormFactorFile, CorruptedValueIsRefused) {
   write_bytes(p, b);
   EXPECT_NE(refusal(p, mesh_).find("checksum mismatch"), std::string::npos);
 }
+
+// Found by fuzzing (tests/fuzz/regressions/ff_file): a storage name of carriage returns was quoted raw, so the
+// refusal was not one line. Control characters are shown escaped.
+TEST_F(FormFactorFile, ControlCharactersInNamesAreQuotedEscaped) {
+  const std::string p = path("scene.ff");
+  save_form_factors(p, mesh_, ff_);
+  std::string b = bytes_of(p);
+  std::memcpy(&b[24], "\r\r\nab\t\0", 8);  // the storage field
+  write_bytes(p, b);
+  const std::string msg = refusal(p, mesh_);
+  EXPECT_NE(msg.find("storage '\\x0d\\x0d\\x0aab\\x09'"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find_first_of("\r\n\t"), std::string::npos) << msg;
+}

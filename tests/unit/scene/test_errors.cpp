@@ -184,3 +184,12 @@ TEST(Errors, VertexOutOfRangeAfterTransforms) {
           "</scene>",
           {"<string>:4:", "out of range after the transforms"});
 }
+
+// A refusal quotes the input, and XML can carry a line break inside a value (&#10;): it is shown escaped, so the
+// message stays one line (tests/fuzz/regressions/scene/newline-*).
+TEST(Errors, QuotedInputStaysOneLine) {
+  refused(in_objectdef("<cuboid emission='x&#10;y,0,0'/>"), {"<string>:4:", "\"x\\x0ay,0,0\""});
+  refused("<scene><head><objectdef name='o'><cuboid/></objectdef></head><body><object name='a&#13;b'/></body>"
+          "</scene>",
+          {"object 'a\\x0db' names no objectdef"});
+}
