@@ -143,7 +143,8 @@ int run_solve(const SolveArgs& a) {
       snapshot_files.push_back(f);
     };
   const SolveResult res = solve(sys, cfg, cb);
-  const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite;
+  const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
+                      res.status == SolveStatus::divergent;
   Verification v;
   if (a.verify && !failed) v = verify(sys, cfg, res);
 
@@ -201,8 +202,9 @@ int run_solve(const SolveArgs& a) {
                 load_s, ff_load_s, res.setup_s, res.solve_s, per_it * 1e3,
                 res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0);
   }
-  if (!a.output_xml.empty()) write_rrv_xml(a.output_xml, m, res.B);
-  if (!a.png.empty()) write_png(a.png, render(m, res.B, cam, width, height, ropt));
+  // A failed solve's radiosity (NaN, Inf or blown up) is no scene and no picture: only its record is written.
+  if (!failed && !a.output_xml.empty()) write_rrv_xml(a.output_xml, m, res.B);
+  if (!failed && !a.png.empty()) write_png(a.png, render(m, res.B, cam, width, height, ropt));
   if (!a.quiet)
     for (const auto& f : snapshot_files) std::printf("  snapshot %s\n", f.c_str());
   if (a.json) std::cout << rec.dump() << std::endl;

@@ -2,6 +2,7 @@
 #include <string>
 #include <utility>
 
+#include "radiosity/solve/divergence.hpp"
 #include "radiosity/solve/methods.hpp"
 
 namespace radiosity {
@@ -15,6 +16,7 @@ MethodRun jacobi(Kernels<T>& k, const Rgb& scale, const SolveConfig& cfg, const 
   const long last = fixed ? cfg.steps : cfg.max_iter + 1;
   run.status = fixed ? SolveStatus::steps_done : SolveStatus::max_iter;
   int cur = 0, nxt = 1;
+  Rgb first{0, 0, 0};  // the residual of b_0, which divergence is measured against
   for (long step = 1; step <= last; ++step) {
     k.matvec(nxt, cur, 0, 1, 1);  // b_step = e + ρ ⊙ F b_{step-1}
     ++run.matrix_passes;
@@ -22,15 +24,19 @@ MethodRun jacobi(Kernels<T>& k, const Rgb& scale, const SolveConfig& cfg, const 
     // so the tolerance costs no extra pass over F. The price: the answer is b_{step-1}, one step short of the
     // newest iterate, and the step that found it converged was spent as its check.
     const Rgb d2 = k.dist2(nxt, cur);
+    Rgb res;
     bool finite = true, met = true;
     for (int c = 0; c < 3; ++c) {
-      const double res = std::sqrt(d2[c]) / scale[c];
-      finite = finite && std::isfinite(res);
-      met = met && res <= cfg.tol;
+      res[c] = std::sqrt(d2[c]) / scale[c];
+      finite = finite && std::isfinite(res[c]);
+      met = met && res[c] <= cfg.tol;
     }
-    if (!finite) {
-      run.status = SolveStatus::nonfinite;
-      run.detail = "jacobi: non-finite radiosity or residual at step " + std::to_string(step);
+    if (step == 1) first = res;
+    const std::string diverged = finite ? divergence(first, res) : "";
+    if (!finite || !diverged.empty()) {
+      run.status = finite ? SolveStatus::divergent : SolveStatus::nonfinite;
+      run.detail = "jacobi: " + (finite ? diverged : "non-finite radiosity or residual") + " at step " +
+                   std::to_string(step);
       run.iterations = step;
       run.answer = nxt;
       break;

@@ -24,7 +24,8 @@ struct MethodRun {
   double callback_s = 0;  // time spent fetching B for the callback and in it
 };
 
-// Jacobi, b_k = e + ρ ⊙ F b_{k-1}: cfg.steps steps exactly (RRV), or until every channel's residual <= cfg.tol.
+// Jacobi, b_k = e + ρ ⊙ F b_{k-1}: cfg.steps steps exactly (RRV), or until every channel's residual <= cfg.tol;
+// either way it stops early, status nonfinite or divergent (divergence.hpp), when the numbers go wrong.
 template <class T>
 MethodRun jacobi(Kernels<T>& k, const Rgb& scale, const SolveConfig& cfg, const IterationCallback& callback);
 

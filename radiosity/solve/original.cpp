@@ -11,6 +11,7 @@
 
 #include "common/timer.hpp"
 #include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/divergence.hpp"
 
 namespace radiosity {
 namespace {
@@ -58,6 +59,19 @@ void compute_step(std::vector<Triangle>& patch, const std::vector<PatchCacheLine
 
 Color to_color(const Rgb& x) { return {float(x[0]), float(x[1]), float(x[2])}; }
 
+// ‖radiosity - radiosityLast‖₂ per channel: the residual of the previous step, as Jacobi measures it.
+Rgb step_residual(const std::vector<Triangle>& patch) {
+  Rgb d2{0, 0, 0};
+  for (const Triangle& t : patch) {
+    const double dr = t.radiosity.r - t.radiosityLast.r, dg = t.radiosity.g - t.radiosityLast.g,
+                 db = t.radiosity.b - t.radiosityLast.b;
+    d2[0] += dr * dr;
+    d2[1] += dg * dg;
+    d2[2] += db * db;
+  }
+  return {std::sqrt(d2[0]), std::sqrt(d2[1]), std::sqrt(d2[2])};
+}
+
 void download(const std::vector<Triangle>& patch, std::vector<Rgb>& B) {
   B.resize(patch.size());
   for (size_t i = 0; i < patch.size(); ++i) B[i] = {patch[i].radiosity.r, patch[i].radiosity.g, patch[i].radiosity.b};
@@ -89,9 +103,25 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
 
   t.reset();
   double callback_s = 0;
+  res.status = SolveStatus::steps_done;
+  Rgb first{0, 0, 0};
   for (long step = 1; step <= cfg.steps; ++step) {
     compute_step(patch, cache);
     res.iterations = step;
+    // RRV never looks. Each step is checked here (O(n) beside the step's O(pairs)), so that a run that went wrong
+    // stops at once like the other backends, instead of finishing its steps on NaN or ever larger numbers.
+    const Rgb d = step_residual(patch);
+    if (step == 1) first = d;
+    if (!std::isfinite(d[0]) || !std::isfinite(d[1]) || !std::isfinite(d[2])) {
+      res.status = SolveStatus::nonfinite;
+      res.detail = "original: non-finite radiosity at step " + std::to_string(step);
+      break;
+    }
+    if (const std::string why = divergence(first, d); !why.empty()) {
+      res.status = SolveStatus::divergent;
+      res.detail = "original: " + why + " at step " + std::to_string(step);
+      break;
+    }
     if (callback) {
       hpcgi::Timer tc;
       download(patch, res.B);
@@ -99,18 +129,11 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
       callback_s += tc.seconds();
     }
   }
-  res.matrix_passes = cfg.steps;
+  res.matrix_passes = res.iterations;
   res.solve_s = t.seconds() - callback_s;
 
   t.reset();
   download(patch, res.B);
-  res.status = SolveStatus::steps_done;
-  for (const Rgb& b : res.B)  // RRV never looks; a fixed step count ends regardless, so one look at the end
-    if (!std::isfinite(b[0]) || !std::isfinite(b[1]) || !std::isfinite(b[2])) {
-      res.status = SolveStatus::nonfinite;
-      res.detail = "original: non-finite radiosity after " + std::to_string(cfg.steps) + " steps";
-      break;
-    }
   res.rel_residual = relative_residual(sys, res.B);
   res.check_s = t.seconds();
   return res;

@@ -73,6 +73,7 @@ const char* to_string(SolveStatus s) {
     case SolveStatus::steps_done: return "steps_done";
     case SolveStatus::breakdown: return "breakdown";
     case SolveStatus::nonfinite: return "nonfinite";
+    case SolveStatus::divergent: return "divergent";
   }
   return "unknown";
 }

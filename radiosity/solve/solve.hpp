@@ -32,6 +32,7 @@ enum class SolveStatus {
   steps_done,  // the fixed number of steps ran
   breakdown,   // BiCG-STAB: ρ = r̂·r, r̂·v or ω ≈ 0 (detail says which, where)
   nonfinite,   // a NaN or Inf in the iterates (or in the input)
+  divergent,   // Jacobi (and original): the residual grew far past its start (divergence.hpp; detail says where)
 };
 const char* to_string(SolveStatus s);
 
@@ -69,7 +70,7 @@ const std::vector<SolveBackend>& solve_backends();
 
 // Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
 // precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the
-// status (breakdown, nonfinite) for the caller to turn into exit status 3.
+// status (breakdown, nonfinite, divergent) for the caller to turn into exit status 3.
 SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback = nullptr);
 
 }  // namespace radiosity
