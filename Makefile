@@ -60,7 +60,7 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 PRESET ?= quick
 RUNNER ?= local
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42
-.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit FORCE
+.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
 	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: $(if $(SANITIZE),nvcc's objects cannot be sanitized,no '$(NVCC)' on PATH (set NVCC=...)); backends cublas1, cublas2, cuda are not built")
@@ -72,6 +72,7 @@ help:
 	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make plots"
 	@echo "make resume     run (or submit) only the cases not yet recorded"
 	@echo "make plots      tables (results/tables) and plots (results/plots) from the records"
+	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy) here: results/tables/bench.md"
 	@echo "make report     the reproduced report, report/REPORT-<preset>.md, from the tables and plots"
 	@echo "make audit      re-run a sample of recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=..."
@@ -162,6 +163,13 @@ ifeq ($(RUNNER),slurm)
 else
 	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS)
 endif
+
+# The bandwidth limit, our solvers per iteration and their peers on this machine, one table of ratios
+# (slurm/bench: the bench-* case lists of PRESET through the local runner; README, section Performance).
+bench:
+	@common/deps.sh --check || common/deps.sh
+	@$(MAKE) --no-print-directory all
+	PRESET=$(PRESET) slurm/bench
 
 plots:
 	$(VENV)/bin/python -m analysis tables $(PRESET)

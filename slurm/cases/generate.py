@@ -73,10 +73,38 @@ def experiments(preset, p):
     return e
 
 
+def bench(preset, p):
+    """make bench (slurm/bench runs these in order): the bandwidth limit, each solver's time per iteration, and the
+    peers (SciPy, NumPy with OpenBLAS) on the same problems with the same threads. Room3's form factors at R = 256
+    are the hemicube case's output, read by the Jacobi cases with our 32 steps (slurm/bench makes both once)."""
+    t = p["cores"]
+    room3 = "{RRV_SCENES}/room3.xml --allow-reflectivity-ge-1"
+    ff = "{FF_DIR}/bench-room3.ff"
+    peer = ".venv/bin/python -m analysis.peers"
+    e = {}
+    e["bench-stream"] = ("Bench: memory bandwidth (STREAM triad, read-only sweep)", None, [f"bin/stream --threads {t}"])
+    # Full solves where SciPy takes seconds; beyond, the same capped iterations for everyone.
+    cg = [(256, None), (512, None), (1024, 100), (2048, 50)]
+    e["bench-cg"] = ("Bench: Poisson CG per iteration, ours (both variants) and SciPy's sparse.linalg.cg", None, [
+        line for n, cap in cg for line in (
+            *(f"bin/poisson --backend openmp --threads {t} --n {n} --variant {v}{f' --max-iter {cap}' if cap else ''}"
+              for v in ("onesweep", "classic")),
+            f"{peer} scipy-cg --threads {t} --n {n}{f' --max-iter {cap}' if cap else ''}")])
+    e["bench-hemicube"] = ("Bench: form factors of room3.xml by the hemicube, R = 256, patches per second", None, [
+        f"bin/radiosity formfactors {room3} -o {ff} --hemicube 256 --weights exact --threads {t}"])
+    e["bench-jacobi"] = ("Bench: Jacobi steps on room3.xml, float32, ours (AOS, SOA) and NumPy (sgemm, 3 sgemv)", None, [
+        *(f"bin/radiosity solve {room3} --ff {ff} --steps 32 --backend openmp --precision float --layout {l} "
+          f"--threads {t}" for l in ("aos", "soa")),
+        *(f"{peer} numpy-jacobi {{RRV_SCENES}}/room3.xml --ff {ff} --solved {{FF_DIR}}/bench-room3-solved.xml --steps 32 --way {w} "
+          f"--threads {t}" for w in ("gemm", "gemv"))])
+    return e
+
+
 def main():
     for preset, p in PRESETS.items():
         (HERE / preset).mkdir(exist_ok=True)
-        for name, (title, repeat, lines) in experiments(preset, p).items():
+        lists = {**experiments(preset, p), **(bench(preset, p) if preset != "ci" else {})}
+        for name, (title, repeat, lines) in lists.items():
             text = HEADER.format(title=title, preset=preset)
             if repeat:
                 text += f"# repeat: {repeat}\n"

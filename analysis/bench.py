@@ -1,0 +1,137 @@
+"""python -m analysis.bench [PRESET]: the table of `make bench` from the bench-* records of one machine (the host of
+the newest bandwidth record): medians over repeats of our time per iteration, the bandwidth it implies as a
+fraction of the measured triad bandwidth, and the peers' time over ours; then the targets of issue 7, met or not.
+Prints the table and writes $RESULTS/tables/bench.md."""
+import sys
+
+import pandas as pd
+
+from analysis.records import TABLES, load
+
+# Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
+# of 4·N² bytes at the triad bandwidth and >= 2.5x the best NumPy way.
+CG_FRACTION, CG_VS_SCIPY, JACOBI_SLACK, JACOBI_VS_NUMPY = 0.80, 8.0, 1.15, 2.5
+
+
+def _on(df, host):
+    return df[df["provenance.host"] == host] if len(df) else df
+
+
+def _median(df, col):
+    return float(df[col].median())
+
+
+def rows(preset):
+    """(table rows, target lines, host, threads, CPU model), or None when there is no bandwidth record."""
+    stream = load("bench-stream", preset)
+    if not len(stream):
+        return None
+    host = stream.sort_values("provenance.utc")["provenance.host"].iloc[-1]
+    stream = _on(stream, host)
+    triad, read = _median(stream, "perf.triad_GBps"), _median(stream, "perf.read_GBps")
+    out, targets = [], []
+
+    def problem(title, entries):
+        """entries: (solver, records, bytes per iteration or None, ours?); time / ours is against our fastest."""
+        entries = [(name, recs, b, mine, _median(recs, "times_s.per_iteration")) for name, recs, b, mine in entries
+                   if len(recs)]
+        ours = [e for e in entries if e[3]]
+        if not ours:
+            return None, {}
+        fastest = min(ours, key=lambda e: e[4])
+        for k, (name, recs, b, mine, t) in enumerate(entries):
+            gbps = b / t / 1e9 if b else None
+            out.append({"problem": title if k == 0 else "", "solver": ("ours: " if mine else "") + name,
+                        "ms per iteration": 1e3 * t, "GB/s": gbps, "of triad": gbps / triad if mine and b else None,
+                        "time / ours": t / fastest[4], "repeats": len(recs)})
+        return fastest, {name: t for name, _, _, mine, t in entries if not mine}
+
+    cg = _on(load("bench-cg", preset), host)
+    if len(cg):
+        mine, peer = cg[cg["app"] == "poisson"], cg[cg["app"] == "peer"]
+        for n in sorted(mine["params.n"].unique()):
+            sp = peer[peer["params.n"] == n]
+            entries = []
+            for v in ("onesweep", "classic"):
+                o = mine[(mine["params.n"] == n) & (mine["params.variant"] == v)]
+                if len(o):
+                    entries.append((f"openmp {v}, {int(o['perf.vectors_per_iteration'].iloc[0])} vectors", o,
+                                     float(o["perf.bytes_per_iteration"].iloc[0]), True))
+            entries.append(("SciPy sparse.linalg.cg (CSR)", sp, None, False))
+            its = int(mine[mine["params.n"] == n]["result.iterations"].median())
+            sp_its = f", SciPy {int(sp['result.iterations'].median())}" if len(sp) else ""
+            fastest, peers = problem(f"Poisson CG double N={n} ({its} it.{sp_its})", entries)
+            if n == 2048 and fastest:
+                frac = fastest[2] / fastest[4] / 1e9 / triad
+                targets.append(f"CG N=2048 ({fastest[0]}): {100 * frac:.0f}% of the triad bandwidth (target >= "
+                               f"{100 * CG_FRACTION:.0f}%): {'met' if frac >= CG_FRACTION else 'NOT met'}")
+                for name, t in peers.items():
+                    x = t / fastest[4]
+                    targets.append(f"CG N=2048: {x:.1f}x faster per iteration than {name} (target >= "
+                                   f"{CG_VS_SCIPY:g}x): {'met' if x >= CG_VS_SCIPY else 'NOT met'}")
+
+    jac = _on(load("bench-jacobi", preset), host)
+    if len(jac):
+        mine, peer = jac[jac["app"] == "radiosity"], jac[jac["app"] == "peer"]
+        nbytes = float(jac["perf.matrix_bytes"].iloc[0])
+        entries = [(f"openmp float {l.upper()}, one pass over F", mine[mine["params.layout"] == l], nbytes, True)
+                   for l in ("aos", "soa")]
+        entries += [("NumPy F @ B (sgemm, 3 columns)", peer[peer["params.way"] == "gemm"], nbytes, False),
+                    ("NumPy 3 x F @ b (sgemv)", peer[peer["params.way"] == "gemv"], 3 * nbytes, False)]
+        n = int(jac["params.patches"].iloc[0])
+        fastest, peers = problem(f"Jacobi step, room3.xml, {n} patches (4N² = {nbytes / 1e6:.0f} MB)", entries)
+        if fastest:
+            bound = nbytes / (triad * 1e9)
+            targets.append(f"Jacobi room3 ({fastest[0]}): {fastest[4] / bound:.2f}x the time of 4N² bytes at the "
+                           f"triad bandwidth (target <= {JACOBI_SLACK}x): "
+                           f"{'met' if fastest[4] <= JACOBI_SLACK * bound else 'NOT met'}")
+            if peers:
+                name, t = min(peers.items(), key=lambda kv: kv[1])
+                x = t / fastest[4]
+                targets.append(f"Jacobi room3: {x:.1f}x faster per step than the best NumPy way, {name} (target >= "
+                               f"{JACOBI_VS_NUMPY:g}x): {'met' if x >= JACOBI_VS_NUMPY else 'NOT met'}")
+
+    hc = _on(load("bench-hemicube", preset), host)
+    if len(hc):
+        pps = _median(hc, "perf.patches_per_s")
+        out.append({"problem": f"Hemicube room3.xml R={int(hc['params.hemicube'].iloc[0])} (iteration = one patch)",
+                    "solver": f"ours: {pps:.0f} patches/s, {_median(hc, 'times_s.hemicube'):.2f} s",
+                    "ms per iteration": 1e3 / pps, "repeats": len(hc)})
+    for name, g in (("STREAM triad", triad), ("read-only sweep", read)):
+        out.append({"problem": f"limit: {name}", "solver": "bin/stream", "GB/s": g, "of triad": g / triad,
+                    "repeats": len(stream)})
+    return out, targets, host, int(stream["params.threads"].iloc[-1]), stream["provenance.cpu_model"].iloc[-1]
+
+
+def write(preset):
+    made = rows(preset)
+    if made is None:
+        return None
+    out, targets, host, threads, cpu = made
+    df = pd.DataFrame(out)
+    df = df.astype(object).where(df.notna(), None)  # empty cells, not "nan"
+    table = df.to_markdown(index=False, floatfmt=".3g", missingval="")
+    head = (f"CPU timings (host wall clock) on {host} ({cpu}), {threads} threads, OMP_PROC_BIND=close, medians over "
+            f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "
+            f"of triad: that over the STREAM triad bandwidth (ours/limit); time / ours: against our fastest on the "
+            f"same problem (peer/ours, > 1: ours is faster).")
+    text = f"# make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
+    TABLES.mkdir(parents=True, exist_ok=True)
+    path = TABLES / "bench.md"
+    path.write_text(text)
+    return text, path
+
+
+def main():
+    preset = sys.argv[1] if len(sys.argv) > 1 else "quick"
+    made = write(preset)
+    if made is None:
+        print(f"bench: no bench-stream records for preset {preset}: run make bench", file=sys.stderr)
+        return 1
+    text, path = made
+    print(text + f"\nbench: wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

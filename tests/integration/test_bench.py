@@ -1,0 +1,133 @@
+"""What `make bench` runs, on small problems (correctness, records and refusals only; the timings are the bench's):
+bin/stream, the Python peers (SciPy CG, NumPy Jacobi) against our programs, and the table built from records."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import BIN, ROOT, poisson, run
+
+SCENES = ROOT / "radiosity" / "scenes"
+PEERS = [sys.executable, "-m", "analysis.peers"]
+
+
+def peer(*args, env=None):
+    p = run([*PEERS, *args], env=env, cwd=ROOT, timeout=300)
+    rec = json.loads([l for l in p.stdout.splitlines() if l.startswith("{")][-1]) if "--json" in args and \
+        p.returncode == 0 else None
+    return p, rec
+
+
+def test_stream_measures_and_records(tmp_path):
+    path = tmp_path / "s.jsonl"
+    p = run([BIN / "stream", "--size", 1 << 16, "--trials", 3, "--threads", 2, "--record", path])
+    assert p.returncode == 0, p.stderr
+    assert "triad" in p.stdout and "read" in p.stdout
+    rec = json.loads(path.read_text())
+    assert rec["schema"] == "hpcgi-record/1" and rec["app"] == "stream" and rec["result"]["valid"] is True
+    assert rec["params"]["threads"] == 2 and rec["perf"]["triad_bytes"] == 24 * (1 << 16)
+    assert rec["perf"]["triad_GBps"] >= rec["perf"]["triad_median_GBps"] > 0
+
+
+@pytest.mark.parametrize("args", [["--size", "0"], ["--trials", "0"], ["--threads", "x"], ["--bogus"]])
+def test_stream_bad_arguments_exit_2_with_one_line(args):
+    p = run([BIN / "stream", *args])
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+@pytest.mark.parametrize("n,cap", [(32, None), (64, 20)])
+def test_scipy_cg_takes_our_iterations_on_our_problem(tmp_path, n, cap):
+    extra = ["--max-iter", str(cap)] if cap else []
+    _, ours = poisson("--n", n, "--backend", "serial", *extra)
+    path = tmp_path / "p.jsonl"
+    p, rec = peer("scipy-cg", "--n", str(n), "--threads", "1", "--json", "--quiet", "--record", str(path), *extra)
+    assert p.returncode == 0, p.stderr
+    assert rec == json.loads(path.read_text())
+    assert rec["schema"] == "hpcgi-record/1" and rec["app"] == "peer" and rec["params"]["peer"] == "scipy-cg"
+    assert rec["provenance"]["libraries"]["scipy"] and rec["provenance"]["git_commit"]
+    assert rec["result"]["iterations"] == ours["result"]["iterations"]
+    assert rec["result"]["status"] == ours["result"]["status"]
+    assert rec["result"]["error_inf"] == pytest.approx(ours["result"]["error_inf"], rel=1e-6)
+
+
+def test_peers_set_the_blas_threads_in_their_record():
+    p, rec = peer("scipy-cg", "--n", "8", "--threads", "3", "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert rec["provenance"]["env"]["OPENBLAS_NUM_THREADS"] == "3" and rec["params"]["threads"] == 3
+
+
+@pytest.fixture(scope="module")
+def scene1(tmp_path_factory):
+    """scene1's form factors at a small hemicube and our 4 Jacobi steps written out."""
+    d = tmp_path_factory.mktemp("scene1")
+    ff, solved = d / "s.ff", d / "s.xml"
+    for args in (["formfactors", SCENES / "scene1.xml", "-o", ff, "--hemicube", "32", "--quiet"],
+                 ["solve", SCENES / "scene1.xml", "--ff", ff, "--steps", "4", "--output", solved, "--quiet"]):
+        p = run([BIN / "radiosity", *args])
+        assert p.returncode == 0, p.stderr
+    return ff, solved
+
+
+@pytest.mark.parametrize("way", ["gemm", "gemv"])
+def test_numpy_jacobi_agrees_with_our_steps(scene1, way):
+    ff, solved = scene1
+    p, rec = peer("numpy-jacobi", str(SCENES / "scene1.xml"), "--ff", str(ff), "--solved", str(solved), "--steps",
+                  "4", "--way", way, "--threads", "2", "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert rec["verify"]["agreed"] and rec["verify"]["max_rel_diff"] < 1e-5
+    assert rec["params"]["patches"] == 1312 and rec["perf"]["matrix_passes"] == (4 if way == "gemm" else 12)
+
+
+def test_numpy_jacobi_with_other_steps_disagrees_and_exits_3(scene1):
+    ff, solved = scene1
+    p, _ = peer("numpy-jacobi", str(SCENES / "scene1.xml"), "--ff", str(ff), "--solved", str(solved), "--steps", "5",
+                "--quiet")
+    assert p.returncode == 3 and "disagrees" in p.stderr
+
+
+def test_numpy_jacobi_refuses_foreign_form_factors(tmp_path, scene1):
+    ff, solved = scene1
+    other = tmp_path / "box.ff"
+    assert run([BIN / "radiosity", "formfactors", SCENES / "closed_box.xml", "-o", other, "--hemicube", "8",
+                "--quiet"]).returncode == 0
+    bad = tmp_path / "bad.ff"
+    bad.write_bytes(b"not a form-factor file at all, but long enough to hold a header of 72 bytes........")
+    for f in (other, bad, tmp_path / "missing.ff"):
+        p, _ = peer("numpy-jacobi", str(SCENES / "scene1.xml"), "--ff", str(f), "--solved", str(solved), "--quiet")
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+@pytest.mark.parametrize("args", [["scipy-cg", "--n", "0"], ["scipy-cg", "--tol", "nan"], ["nonsense"], [],
+                                  ["numpy-jacobi", "x.xml"]])
+def test_peer_bad_arguments_exit_2_with_one_line(args):
+    p, _ = peer(*args)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert p.stderr.startswith("peers:")
+
+
+def test_peers_help_exits_0():
+    p, _ = peer("--help")
+    assert p.returncode == 0 and "scipy-cg" in p.stdout and "numpy-jacobi" in p.stdout
+
+
+def test_bench_table_from_records(tmp_path):
+    """analysis.bench on a few records: ratios against the triad limit and the peers, targets judged."""
+    res = tmp_path / "results"
+    env = dict(os.environ, RESULTS=str(res))
+    p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
+    assert p.returncode == 0, p.stderr
+    for args in (["--n", "2048", "--variant", "onesweep"], ["--n", "2048", "--variant", "classic"]):
+        p = run([BIN / "poisson", "--backend", "openmp", "--max-iter", "3", "--quiet", "--record",
+                 res / "bench-cg/quick.jsonl", *args])
+        assert p.returncode == 0, p.stderr
+    p, _ = peer("scipy-cg", "--n", "2048", "--max-iter", "3", "--quiet", "--record", str(res / "bench-cg/quick.jsonl"))
+    assert p.returncode == 0, p.stderr
+    p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    table = (res / "tables" / "bench.md").read_text()
+    assert "CPU timings" in table and "openmp onesweep, 6 vectors" in table and "SciPy" in table
+    assert "limit: STREAM triad" in table
+    assert "CG N=2048 (openmp" in table and "faster per iteration than SciPy" in table
