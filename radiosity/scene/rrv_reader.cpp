@@ -45,6 +45,13 @@ struct Shape {
 
 using ObjectDef = std::vector<Shape>;
 
+// Coordinates so large that the edges or the area overflow a double (each number may still be finite): such a
+// triangle can be neither judged degenerate nor subdivided.
+bool out_of_range(const std::array<Vec3, 3>& v) {
+  const Vec3 a = v[1] - v[0], b = v[2] - v[0];
+  return !std::isfinite(a.norm()) || !std::isfinite(b.norm()) || !std::isfinite(a.cross(b).norm());
+}
+
 // Zero area, judged by the sine of the angle at v0 so that the test does not depend on the scene's scale: the
 // three points are collinear (or two coincide) exactly when every angle is 0 or π.
 bool degenerate(const std::array<Vec3, 3>& v) {
@@ -138,6 +145,7 @@ class Reader {
   }
 
   void add(Shape& s, const std::array<Vec3, 3>& v, const Colours& c, const pugi::xml_node& source) const {
+    if (out_of_range(v)) in_.fail(source, "triangle out of range (its size overflows a double)");
     if (degenerate(v)) in_.fail(source, "degenerate triangle (zero area)");
     s.triangles.push_back(patch(v, c));
     s.source.push_back(source);
@@ -265,12 +273,10 @@ class Reader {
       std::vector<Patch> placed = s.triangles;
       for (size_t k = 0; k < placed.size(); ++k) {
         Patch& p = placed[k];
-        for (Vec3& v : p.v) {
-          v = m.apply(v);
-          if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-            in_.fail(s.source[k], "triangle of '" + s.name + "' has a vertex out of range after the transforms of " +
-                                      "the object at line " + std::to_string(in_.line(object)));
-        }
+        for (Vec3& v : p.v) v = m.apply(v);
+        if (out_of_range(p.v))
+          in_.fail(s.source[k], "triangle of '" + s.name + "' is out of range after the transforms of the object " +
+                                    "at line " + std::to_string(in_.line(object)) + " (its size overflows a double)");
         if (degenerate(p.v))
           in_.fail(s.source[k],
                    "triangle of '" + s.name + "' has zero area after the transforms of the object at line " +

@@ -59,8 +59,9 @@ void compute_step(std::vector<Triangle>& patch, const std::vector<PatchCacheLine
 
 Color to_color(const Rgb& x) { return {float(x[0]), float(x[1]), float(x[2])}; }
 
-// ‖radiosity - radiosityLast‖₂ per channel: the residual of the previous step, as Jacobi measures it.
-Rgb step_residual(const std::vector<Triangle>& patch) {
+// ‖radiosity - radiosityLast‖₂ / scale per channel: the relative residual of the previous step, as Jacobi
+// measures it.
+Rgb step_residual(const std::vector<Triangle>& patch, const Rgb& scale) {
   Rgb d2{0, 0, 0};
   for (const Triangle& t : patch) {
     const double dr = t.radiosity.r - t.radiosityLast.r, dg = t.radiosity.g - t.radiosityLast.g,
@@ -69,7 +70,7 @@ Rgb step_residual(const std::vector<Triangle>& patch) {
     d2[1] += dg * dg;
     d2[2] += db * db;
   }
-  return {std::sqrt(d2[0]), std::sqrt(d2[1]), std::sqrt(d2[2])};
+  return {std::sqrt(d2[0]) / scale[0], std::sqrt(d2[1]) / scale[1], std::sqrt(d2[2]) / scale[2]};
 }
 
 void download(const std::vector<Triangle>& patch, std::vector<Rgb>& B) {
@@ -104,13 +105,14 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
   t.reset();
   double callback_s = 0;
   res.status = SolveStatus::steps_done;
+  const Rgb scale = residual_scale(sys);
   Rgb first{0, 0, 0};
   for (long step = 1; step <= cfg.steps; ++step) {
     compute_step(patch, cache);
     res.iterations = step;
     // RRV never looks. Each step is checked here (O(n) beside the step's O(pairs)), so that a run that went wrong
     // stops at once like the other backends, instead of finishing its steps on NaN or ever larger numbers.
-    const Rgb d = step_residual(patch);
+    const Rgb d = step_residual(patch, scale);
     if (step == 1) first = d;
     if (!std::isfinite(d[0]) || !std::isfinite(d[1]) || !std::isfinite(d[2])) {
       res.status = SolveStatus::nonfinite;

@@ -177,12 +177,19 @@ TEST(Errors, SubdivisionBeyondThePatchLimit) {
   EXPECT_EQ(radiosity::load_rrv_scene_string(three, opt).size(), 12u);
 }
 
-TEST(Errors, VertexOutOfRangeAfterTransforms) {
+TEST(Errors, TriangleOutOfRange) {
   // Each number is finite, their product is not: without the check the area is NaN and subdivision never ends.
   refused("<scene>\n<head>\n<objectdef name='o'>\n<cuboid/>\n</objectdef>\n</head>\n<body><scale dx='1e300' "
           "dy='1e300' dz='1e300'><scale dx='1e300' dy='1e300' dz='1e300'><object name='o'/></scale></scale></body>"
           "</scene>",
           {"<string>:4:", "out of range after the transforms"});
+  refused("<scene>\n<head>\n<objectdef name='o'>\n<cuboid/>\n</objectdef>\n</head>\n<body><scale dx='1e200' "
+          "dy='1e200' dz='1e200'><object name='o'/></scale></body></scene>",
+          {"<string>:4:", "out of range after the transforms", "overflows"});
+  // Coordinates of 1e200 are numbers, but the edge lengths overflow: refused as such, not as "zero area".
+  refused(in_objectdef("<triangleset><triangle><vertex x='0' y='0' z='0'/><vertex x='1e200' y='0' z='0'/>"
+                       "<vertex x='0' y='1' z='0'/></triangle></triangleset>"),
+          {"<string>:4:", "triangle out of range (its size overflows a double)"});
 }
 
 // A refusal quotes the input, and XML can carry a line break inside a value (&#10;): it is shown escaped, so the
