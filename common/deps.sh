@@ -11,6 +11,7 @@ DEBIAN_PACKAGES=(
   libgtest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libpugixml-dev libpng-dev
   openmpi-bin libopenmpi-dev
   slurmctld slurmd slurm-client munge
+  clang libclang-rt-dev  # make fuzz: libFuzzer and clang's sanitizers
 )
 VENV=${VENV:-.venv}
 PYTHON=${PYTHON:-python3}
