@@ -120,7 +120,8 @@ int solve(const Args& a) {
   }
   if (a.json) std::cout << rec.dump() << std::endl;
   if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
-  if (!a.solution_path.empty()) write_solution(a.solution_path, x);
+  // The solution of a broken-down run is no solution: only its record is written (as bin/radiosity does).
+  if (!a.solution_path.empty() && r.status != "breakdown") write_solution(a.solution_path, x);
   if (r.status == "breakdown") throw hpcgi::NumericalError(r.breakdown);
   return hpcgi::kExitOk;
 }
