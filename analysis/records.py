@@ -12,6 +12,8 @@ RESULTS = Path(os.environ.get("RESULTS", ROOT / "results")).resolve()
 PAPER = ROOT / "results" / "paper"
 TABLES = RESULTS / "tables"
 PLOTS = RESULTS / "plots"
+# The reproduced report goes to report/ for the project's own results, beside the records for any other folder.
+REPORT = ROOT / "report" if RESULTS == (ROOT / "results").resolve() else RESULTS / "report"
 
 # The report's scene numbers: 1 and 2 are our scenes, 3 and 4 RRV's rooms.
 SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}

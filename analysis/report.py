@@ -5,7 +5,7 @@ import os
 import pandas as pd
 
 from analysis import radiosity_tables, table41
-from analysis.records import PLOTS, ROOT, TABLES, load
+from analysis.records import PLOTS, REPORT, ROOT, TABLES, load
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42")
 
@@ -129,7 +129,7 @@ def include(name, preset):
 
 def image(name, preset, alt):
     f = PLOTS / f"{name}_{preset}.png"
-    return f"![{alt}]({os.path.relpath(f, ROOT / 'report')})\n" if f.exists() else f"({alt}: no records yet)\n"
+    return f"![{alt}]({os.path.relpath(f, REPORT)})\n" if f.exists() else f"({alt}: no records yet)\n"
 
 
 def write(preset):
@@ -149,7 +149,7 @@ def write(preset):
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
             "### Figure 4.2", "", image("figure42", preset, "Figure 4.2")]
-    path = ROOT / "report" / f"REPORT-{preset}.md"
-    path.parent.mkdir(exist_ok=True)
+    path = REPORT / f"REPORT-{preset}.md"
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(out) + "\n")
-    return path.relative_to(ROOT)
+    return path

@@ -92,11 +92,9 @@ def cluster():
 
 @slurm_ready
 def test_job_arrays_under_slurm_then_make_plots(tmp_path, cluster):
-    e = env(tmp_path, REPEAT="1", WAIT="1", GPUS="0")
-    out = tmp_path / "out"
-    out.mkdir()
-    p = run([ROOT / "slurm" / "submit", "formfactors", "table41", "table42", "--ntasks=2", "--cpus-per-task=1",
-             f"--output={out}/%x_%A_%a.out"], env=e, timeout=900)
+    e = env(tmp_path, REPEAT="1", WAIT="1", GPUS="0", LOG_DIR=str(tmp_path / "logs"))
+    p = run([ROOT / "slurm" / "submit", "formfactors", "table41", "table42", "--ntasks=2", "--cpus-per-task=1"],
+            env=e, timeout=900)
     assert p.returncode == 0, p.stdout + p.stderr
     assert "submit: formfactors" in p.stdout and "aggregate" in p.stdout
     for exp in ("formfactors", "table41", "table42"):
@@ -112,3 +110,5 @@ def test_job_arrays_under_slurm_then_make_plots(tmp_path, cluster):
     md = (tables / "table41_ci.md").read_text()
     assert "No GPU on this machine" in md
     assert (tmp_path / "results" / "plots" / "figure41_ci.png").stat().st_size > 0
+    assert (tmp_path / "results" / "report" / "REPORT-ci.md").exists()
+    assert len(list((tmp_path / "logs").glob("aggregate_*.out"))) == 1
