@@ -63,6 +63,7 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
   ref.layout = "aos";
   ref.precision = "double";
   ref.ff_threshold = 0;
+  ref.fused = ref.overlap = false;
   if (cfg.backend == "original") ref.method = "jacobi";
   // A fixed-step run is compared with the same steps in double: only rounding may differ. A run that stops on a
   // tolerance is compared with the converged solution: it may differ by about tol times the condition number of
@@ -96,11 +97,22 @@ void add_solve(CLI::App& app, SolveArgs& a) {
       ->check(hpcgi::positive_finite())->capture_default_str()->excludes(steps);
   cmd->add_option("--max-iter", a.cfg.max_iter, "iteration limit with --tol")->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_option("--layout", a.cfg.layout, "aos (one r,g,b record per patch) | soa (one array per channel)")
-      ->check(CLI::IsMember({"aos", "soa"}))->capture_default_str();
+  CLI::Option* layout =
+      cmd->add_option("--layout", a.cfg.layout,
+                      "aos (one r,g,b record per patch) | soa (one array per channel); default: aos, or the one "
+                      "layout a backend runs (cublas: soa)")
+          ->check(CLI::IsMember({"aos", "soa"}))->capture_default_str();
   cmd->add_option("--backend", a.cfg.backend, backend_list())->capture_default_str();
   cmd->add_option("--precision", a.cfg.precision, "working precision of B: float | double (F is float32)")
       ->check(CLI::IsMember({"float", "double"}))->capture_default_str();
+  CLI::Option* fused =
+      cmd->add_flag("--fused", a.cfg.fused, "cublas: one cublasSgemm over the three channels, not an Sgemv per channel");
+  CLI::Option* distribution =
+      cmd->add_option("--distribution", a.cfg.distribution,
+                      "hybrid: the share d in [0, 1] of rows on the GPU (the first ceil(d n))")
+          ->capture_default_str();
+  CLI::Option* overlap =
+      cmd->add_flag("--overlap", a.cfg.overlap, "hybrid: exchange the halves through pinned memory, overlapping the CPU");
   cmd->add_option("--output", a.output_xml, "write the solved scene in RRV's format (RRV's visualizer reads it)");
   cmd->add_option("--png", a.png, "render the solved scene to a PNG");
   cmd->add_option("--view", a.view, "camera: auto | front | top | inside | ex,ey,ez:tx,ty,tz[:fov]")
@@ -112,6 +124,15 @@ void add_solve(CLI::App& app, SolveArgs& a) {
       ->delimiter(',')->check(CLI::PositiveNumber);
   cmd->add_option("--snapshot-prefix", a.snapshot_prefix, "snapshot files are PREFIX_iterK.png (default: snapshot)");
   cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference");
+  cmd->callback([&a, layout, fused, distribution, overlap] {
+    // An option of one backend given with another is refused, not ignored: the record would claim it.
+    for (const auto& [opt, backend] : {std::pair{fused, "cublas"}, {distribution, "hybrid"}, {overlap, "hybrid"}})
+      if (opt->count() > 0 && a.cfg.backend != backend)
+        throw CLI::ValidationError(opt->get_name() + " applies to --backend " + backend + ", not " + a.cfg.backend);
+    if (layout->count() == 0)
+      for (const auto& b : solve_backends())
+        if (b.name == a.cfg.backend && b.layouts.size() == 1) a.cfg.layout = b.layouts.front();
+  });
 }
 
 int run_solve(const SolveArgs& a) {
@@ -149,6 +170,8 @@ int run_solve(const SolveArgs& a) {
   if (a.verify && !failed) v = verify(sys, cfg, res);
 
   const double passes_bytes = res.matrix_bytes * static_cast<double>(res.matrix_passes);
+  const bool gpu = !res.backend_info.empty();  // the GPU backends describe their GPU
+  const bool hybrid = cfg.backend == "hybrid";
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "solve"},
                    {"scene", a.scene},
@@ -165,7 +188,10 @@ int run_solve(const SolveArgs& a) {
                    {"hemicube", ff.params.resolution},
                    {"weights", to_string(ff.params.weights)},
                    {"ff_threshold", ff.params.threshold},
-                   {"ff_file", a.ff}};
+                   {"ff_file", a.ff},
+                   {"fused", cfg.backend == "cublas" ? nlohmann::json(cfg.fused) : nlohmann::json()},
+                   {"distribution", hybrid ? nlohmann::json(cfg.distribution) : nlohmann::json()},
+                   {"overlap", hybrid ? nlohmann::json(cfg.overlap) : nlohmann::json()}};
   rec["result"] = {{"status", to_string(res.status)},
                    {"converged", res.status == SolveStatus::converged},
                    {"iterations", res.iterations},
@@ -184,10 +210,22 @@ int run_solve(const SolveArgs& a) {
   const double per_it = res.iterations > 0 ? res.solve_s / static_cast<double>(res.iterations) : 0.0;
   rec["times_s"] = {{"load", load_s},   {"ff_load", ff_load_s}, {"setup", res.setup_s},   {"solve", res.solve_s},
                     {"per_iteration", per_it}, {"check", res.check_s}, {"verify", v.seconds}, {"total", total.seconds()}};
+  if (gpu) {
+    rec["times_s"]["upload"] = res.upload_s;
+    rec["times_s"]["transfer"] = res.transfer_s;
+    rec["times_s"]["device_compute"] = res.device_compute_s;
+    rec["times_s"]["host_compute"] = res.host_compute_s;
+  }
   rec["perf"] = {{"matrix_bytes", res.matrix_bytes},
                  {"matrix_passes", res.matrix_passes},
                  {"bandwidth_GBps", res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0},
-                 {"timer", "host wall clock"}};
+                 {"timer", gpu ? "host wall clock, device synchronised; upload, transfer and device_compute by CUDA "
+                                 "events, host_compute by the host's clock"
+                               : "host wall clock"}};
+  if (gpu) rec["perf"]["transfer_bytes"] = res.transfer_bytes;
+  nlohmann::json info = {{"threads", std::to_string(res.threads)}};
+  for (const auto& [key, value] : res.backend_info) info[key] = value;
+  rec["backend_info"] = info;
 
   if (!a.quiet) {
     std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads\n", a.scene.c_str(), m.size(), cfg.method.c_str(),
@@ -201,6 +239,11 @@ int run_solve(const SolveArgs& a) {
     std::printf("  time: load %.3f s, form factors %.3f s, setup %.4f s, solve %.4f s (%.4g ms/iteration, %.2f GB/s)\n",
                 load_s, ff_load_s, res.setup_s, res.solve_s, per_it * 1e3,
                 res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0);
+    if (gpu)
+      std::printf("  device: %s; upload of F %.4f s; during the solve: transfers %.4f s (%.3g MB), device compute "
+                  "%.4f s, host compute %.4f s\n",
+                  res.backend_info.count("gpu") ? res.backend_info.at("gpu").c_str() : "?", res.upload_s,
+                  res.transfer_s, res.transfer_bytes / 1e6, res.device_compute_s, res.host_compute_s);
   }
   // A failed solve's radiosity (NaN, Inf or blown up) is no scene and no picture: only its record is written.
   if (!failed && !a.output_xml.empty()) write_rrv_xml(a.output_xml, m, res.B);

@@ -78,6 +78,13 @@ const char* to_string(SolveStatus s) {
   return "unknown";
 }
 
+// The GPU backends are listed in every build, so that asking for one where it was not built says why.
+#ifdef HAVE_CUDA
+#define GPU_BACKEND(run) true, "", run
+#else
+#define GPU_BACKEND(run) false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr
+#endif
+
 const std::vector<SolveBackend>& solve_backends() {
   static const std::vector<SolveBackend> list = {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
@@ -88,6 +95,12 @@ const std::vector<SolveBackend>& solve_backends() {
       {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines",
        {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>},
+      {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
+       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(run_cuda)},
+      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
+       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(run_cublas)},
+      {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
+       {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(run_hybrid)},
   };
   return list;
 }

@@ -6,6 +6,7 @@
 // Combinations a backend does not run are refused with hpcgi::UsageError before anything is computed.
 #pragma once
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,9 @@ struct SolveConfig {
   long max_iter = 1000;             // steps == 0: give up after this many iterations
   int threads = 0;                  // openmp: 0 = the OpenMP default; the single-threaded backends ignore it
   float ff_threshold = 0;           // original: keep only F_ij > threshold (RRV's ffTreshold); other backends: 0
+  bool fused = false;               // cublas: one Sgemm over the three channels instead of one Sgemv per channel
+  double distribution = 0.5;        // hybrid: the first ceil(d n) rows on the GPU, the rest on the CPU; d in [0, 1]
+  bool overlap = false;             // hybrid: pinned staging and async copies that overlap the CPU's rows
 };
 
 enum class SolveStatus {
@@ -49,6 +53,13 @@ struct SolveResult {
   double setup_s = 0;             // building the backend's data and loading B0
   double solve_s = 0;             // the iterations, without the time spent in the callback
   double check_s = 0;             // fetching B and recomputing the residual
+  // GPU backends (zero for the others). setup_s includes upload_s; the rest is the solve's, callbacks excluded.
+  double upload_s = 0;            // the form factors host -> device (cublas double: with their widening to double)
+  double transfer_s = 0;          // copies during the solve: reduction results, hybrid's halves (CUDA events)
+  double device_compute_s = 0;    // kernels and cuBLAS calls during the solve (CUDA events)
+  double host_compute_s = 0;      // hybrid: the CPU's rows during the solve (host wall clock)
+  double transfer_bytes = 0;      // bytes copied between host and device during the solve
+  std::map<std::string, std::string> backend_info;  // GPU backends: the GPU, CUDA versions, hybrid's row split
 };
 
 // Called after every iteration k = 1, 2, ... with the radiosity B_k (report Figure 4.2: snapshots after 1, 2, 4,
