@@ -56,7 +56,7 @@ def claim_bicgstab(preset):
 
 def claim_gpu(preset, experiment, what):
     df = radiosity_tables.solves(experiment, preset) if experiment != "table41" else load("table41", preset)
-    gpu = df[df["params.backend"].isin(["cuda", "cublas1", "cublas2", "hybrid"])] if not df.empty else df
+    gpu = df[df["params.backend"].isin(["cuda", "cublas", "cublas1", "cublas2", "hybrid"])] if not df.empty else df
     if gpu.empty:
         return "cannot say", f"no GPU on this machine: {what} not measured"
     return None, ""
@@ -83,11 +83,11 @@ def claim_soa(preset):
     verdict, why = claim_gpu(preset, "table44", "the cuBLAS SOA column")
     if verdict:
         return verdict, why
-    m = medians("table44", preset, ["scene_id", "params.backend"])
-    w = m.pivot(index="scene_id", columns="params.backend", values="time_s")
+    m = medians("table44", preset, ["scene_id", "column"])
+    w = m.pivot(index="scene_id", columns="column", values="time_s")
     large = max(w.index)
     ok = w.loc[large, "cuda"] < w.loc[large, "openmp"]
-    return ("confirmed" if ok else "refuted"), f"scene {large}: cuda {w.loc[large, 'cuda']:.4g} s, openmp {w.loc[large, 'openmp']:.4g} s"
+    return ("confirmed" if ok else "refuted"), f"scene {large}: cuBLAS {w.loc[large, 'cuda']:.4g} s, openmp {w.loc[large, 'openmp']:.4g} s"
 
 
 def claim_hybrid(preset):

@@ -60,8 +60,8 @@ def experiments(preset, p):
     e["table44"] = ("Table 4.4: SOA Jacobi to 1e-6: Serial, CUDA (cuBLAS per channel, and fused), OpenMP", None, [
         line for s in p["scenes"] for line in (
             f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend serial --layout soa",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cuda --layout soa",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cuda --layout soa --fused",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa --fused",
             f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend openmp --layout soa")])
     hs = p["hybrid_scene"]
     e["table45"] = (f"Table 4.5: hybrid CPU/GPU Jacobi to 1e-6 on scene {hs}, distribution factor 0.0 .. 1.0", None, [
