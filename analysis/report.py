@@ -24,6 +24,10 @@ def provenance(preset):
             lines.append(f"- {what}: {', '.join(vals) if vals else 'none'}")
     if "backend_info.gpu" not in df.columns:
         lines.append("- GPU: none used (no GPU on this machine)")
+    if "provenance.loadavg_1min" in df.columns:
+        busy = (df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum()
+        lines.append(f"- machine load: {busy} of {len(df)} records were taken while the 1-minute load average exceeded "
+                     "the core count (other work was running: their times are upper bounds)")
     dirty = df["provenance.git_dirty"].astype(bool).sum() if "provenance.git_dirty" in df.columns else 0
     lines.append(f"- records: {len(df)} ({dirty} from a working tree with uncommitted changes), "
                  f"UTC {df['provenance.utc'].min()} to {df['provenance.utc'].max()}")

@@ -67,6 +67,9 @@ nlohmann::json provenance() {
   if (uname(&u) == 0) p["os"] = std::string(u.sysname) + " " + u.release + " " + u.machine;
   p["cpu_model"] = cpu_model();
   p["cpus_online"] = static_cast<long>(sysconf(_SC_NPROCESSORS_ONLN));
+  // The machine's 1-minute load when the record was made: a timing taken while other work ran says so.
+  double load[1] = {0};
+  if (getloadavg(load, 1) == 1) p["loadavg_1min"] = load[0];
 #ifdef _OPENMP
   p["omp_max_threads"] = omp_get_max_threads();
 #else
