@@ -112,3 +112,75 @@ def test_job_arrays_under_slurm_then_make_plots(tmp_path, cluster):
     assert (tmp_path / "results" / "plots" / "figure41_ci.png").stat().st_size > 0
     assert (tmp_path / "results" / "report" / "REPORT-ci.md").exists()
     assert len(list((tmp_path / "logs").glob("aggregate_*.out"))) == 1
+
+
+def test_task_past_its_time_limit_leaves_no_record_and_says_so(tmp_path):
+    # Slurm ends a task past its time limit with SIGTERM, then SIGKILL; `timeout` does the same here, to the
+    # quick preset's N = 1024 run on one MPI rank (seconds long).
+    e = env(tmp_path, REPEAT="1", PRESET="quick")
+    f = tmp_path / "results" / "table41" / "quick.jsonl"
+    p = run(["timeout", "-s", "TERM", "0.5", ROOT / "slurm" / "run-case", "table41", "4"], env=e)
+    assert p.returncode != 0 and not f.exists()
+    p = run([ROOT / "slurm" / "run-case", "table41", "4"], env=e)
+    assert p.returncode == 0 and len(f.read_text().splitlines()) == 1
+
+
+def descendants(pid):
+    """Every process below pid (from ps), so a test kills its own processes and nobody else's."""
+    rows = [l.split() for l in subprocess.run(["ps", "-eo", "pid=,ppid=,args="], capture_output=True,
+                                               text=True).stdout.splitlines()]
+    kids, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        for r in rows:
+            if int(r[1]) == p:
+                kids.append((int(r[0]), " ".join(r[2:])))
+                todo.append(int(r[0]))
+    return kids
+
+
+def test_program_killed_by_a_signal_is_named(tmp_path):
+    # The solver dies (as under the OOM killer), not the runner: the runner says so and records nothing.
+    e = env(tmp_path, REPEAT="1", PRESET="quick")
+    p = subprocess.Popen([ROOT / "slurm" / "run-case", "table41", "4"], env=dict(os.environ, **e), cwd=ROOT,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        solvers = [pid for pid, args in descendants(p.pid) if args.startswith("bin/poisson")]
+        if solvers:
+            time.sleep(0.3)
+            for pid in solvers:
+                os.kill(pid, signal.SIGKILL)
+            break
+        time.sleep(0.01)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode != 0, out
+    assert "repeat 0" in err and ("killed by signal" in err or "failed" in err), err
+    assert not (tmp_path / "results" / "table41" / "quick.jsonl").exists()
+
+
+def test_full_disk_while_writing_a_record_leaves_the_file_valid(tmp_path):
+    # A file-size limit makes the record's write fail as a full disk would (EFBIG instead of ENOSPC). Case 4 is
+    # a single-process one: mpirun itself cannot start under such a limit.
+    e = env(tmp_path, REPEAT="3")
+    assert run([ROOT / "slurm" / "run-case", "table41", "4"], env={**e, "REPEAT": "1"}).returncode == 0
+    f = tmp_path / "results" / "table41" / "ci.jsonl"
+    size_kb = f.stat().st_size // 1024 + 1
+    p = run(["bash", "-c", f"trap '' XFSZ; ulimit -f {size_kb}; exec {ROOT}/slurm/run-case table41 4"], env=e)
+    assert p.returncode != 0 and "cannot append record" in p.stderr, p.stderr
+    assert len(records(tmp_path, "table41")) >= 1  # every line still parses: the short write was cut back
+    assert f.read_text().endswith("\n")
+    assert run([ROOT / "slurm" / "run-case", "table41", "4"], env=e).returncode == 0
+    assert len(records(tmp_path, "table41")) == 3
+
+
+def test_form_factor_file_deleted_between_tasks(tmp_path):
+    e = env(tmp_path, REPEAT="1")
+    assert run([ROOT / "slurm" / "run-local", "formfactors"], env=e).returncode == 0
+    (tmp_path / "ff" / "ci-scene1.ff").unlink()
+    p = run([ROOT / "slurm" / "run-case", "table42", "0"], env=e)
+    assert p.returncode == 2 and "ci-scene1.ff" in p.stderr, p.stderr
+    assert records(tmp_path, "table42") == []
+    # a re-run of both finds the file missing, makes it again, then finishes the solve
+    assert run([ROOT / "slurm" / "run-local", "formfactors", "table42"], env=e).returncode == 0
+    assert len(records(tmp_path, "formfactors")) == 2 and len(records(tmp_path, "table42")) == 2
