@@ -29,6 +29,8 @@ constexpr int64_t kSub = 256;
 // Triangles are clipped to a guard band twice the face's field of view (|x|, |y| <= 2d) as well as to the near
 // plane, which bounds the fixed-point coordinates; clipping outside the face changes no pixel inside it.
 constexpr double kGuard = 2.0;
+// Pixels a row's span is filled in at a time (8 floats: one AVX2 vector).
+constexpr int kLanes = 8;
 
 // The five views. In the patch's frame (u, v, n) a point has local coordinates (lu, lv, ln); a view sees it at view
 // coordinates (x, y, d): image point (x/d, y/d), depth d along the view direction. On the side views y is the height
@@ -125,8 +127,8 @@ class RowRenderer {
         rrv_(p.weights == HemicubeWeights::rrv2007),
         weights_(weights),
         local_(corners.size()),
-        item_(size_t(R_) * R_, -1),
-        depth_(size_t(R_) * R_, 0.0f) {
+        item_(size_t(R_) * R_ + kLanes, -1),
+        depth_(size_t(R_) * R_ + kLanes, 0.0f) {
     for (auto& list : within_) list.reserve(mesh.size());
     straddling_.reserve(mesh.size());
   }
@@ -319,35 +321,53 @@ class RowRenderer {
     dz_dx *= inv_area;
     dz_dy *= inv_area;
 
-    // A triangle covers one interval of each pixel row; its ends follow exactly from the integer edge functions
-    // (E_k + s_k·(x - x0) >= 0, s_k the step per pixel), so only covered pixels are visited. The depth is evaluated
-    // afresh at each pixel rather than stepped, which would chain every pixel on the latency of a floating-point add.
+    // A triangle covers one interval of each pixel row; its ends follow exactly from the integer edge functions:
+    // E_k + s_k·d >= 0 for the pixel d = x - x0 of the row, s_k the step per pixel, holds from d = ceil(-E_k/s_k)
+    // on when s_k > 0 and up to d = floor(E_k/|s_k|) when s_k < 0 (an edge with s_k = 0 keeps the whole row or
+    // none). So only covered pixels are visited. Rows are short (about 5 pixels on average for room3.xml at
+    // R = 256), so the ends are kept without a division per row: q_k = floor(E_k/u_k) with u_k = |s_k| (1 when
+    // s_k = 0: then q_k = E_k) and its remainder r_k in [0, u_k), stepped by the quotient and remainder of the
+    // per-row step t_k as Bresenham's line does: exact, the same intervals as dividing.
+    int64_t u[3], q[3], r[3], dq[3], dr[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = step_x[k] > 0 ? step_x[k] : step_x[k] < 0 ? -step_x[k] : 1;
+      q[k] = floor_div(e_row[k], u[k]);
+      r[k] = e_row[k] - q[k] * u[k];
+      dq[k] = floor_div(step_y[k], u[k]);
+      dr[k] = step_y[k] - dq[k] * u[k];
+    }
+    // The depth is evaluated afresh at each pixel rather than stepped, which would chain every pixel on the latency
+    // of a floating-point add.
     for (int64_t y = y0; y <= y1; ++y) {
       int64_t lo = x0, hi = x1;
-      for (int k = 0; k < 3 && lo <= hi; ++k) {
-        const int64_t e = e_row[k], s = step_x[k];
-        if (s > 0) {
-          if (e < 0) lo = std::max(lo, x0 + (-e + s - 1) / s);
-        } else if (s < 0) {
-          hi = e < 0 ? lo - 1 : std::min(hi, x0 + e / -s);
-        } else if (e < 0) {
-          hi = lo - 1;
-        }
+      for (int k = 0; k < 3; ++k) {
+        if (step_x[k] > 0) lo = std::max(lo, x0 - q[k]);
+        else if (step_x[k] < 0) hi = std::min(hi, x0 + q[k]);
+        else if (q[k] < 0) hi = lo - 1;
+        q[k] += dq[k];
+        r[k] += dr[k];
+        const int64_t carry = r[k] >= u[k];
+        q[k] += carry;
+        r[k] -= carry * u[k];
       }
       int32_t* it = &item_[size_t(y) * R_];
       float* dp = &depth_[size_t(y) * R_];
-      // Written branch-free (select, then store) and with 32-bit offsets (AVX2 converts int32 to double in
-      // vectors, not int64) so that the compiler vectorises it.
+      // The interval in blocks of kLanes pixels, every lane computed and stored, the lanes past the interval's end
+      // storing back what they read (the buffers have kLanes pixels of slack at the end): a row is about 5 pixels,
+      // so a loop with a vector body and a scalar tail would run mostly in its tail. Branch-free (select, then
+      // store; `&`, not `&&`, which is a branch) and with 32-bit offsets (AVX2 converts int32 to double in vectors,
+      // not int64), so that the lanes become vector instructions.
       const int first = int(lo - x0), last = int(hi - x0);
       dp += x0;
       it += x0;
-      for (int x = first; x <= last; ++x) {
-        const float z = static_cast<float>(z_row + dz_dx * double(x)), old = dp[x];
-        const bool nearer = z > old;  // larger 1/d is nearer
-        dp[x] = nearer ? z : old;
-        it[x] = nearer ? item : it[x];
-      }
-      for (int k = 0; k < 3; ++k) e_row[k] += step_y[k];
+      for (int x = first; x <= last; x += kLanes)
+#pragma omp simd
+        for (int l = 0; l < kLanes; ++l) {
+          const float z = static_cast<float>(z_row + dz_dx * double(x + l)), old = dp[x + l];
+          const bool nearer = (x + l <= last) & (z > old);  // larger 1/d is nearer
+          dp[x + l] = nearer ? z : old;
+          it[x + l] = nearer ? item : it[x + l];
+        }
       z_row += dz_dy;
     }
   }
