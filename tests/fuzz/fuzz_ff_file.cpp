@@ -1,4 +1,4 @@
-// libFuzzer target: any bytes as a form-factor file for the mesh of fuzz_mesh.hpp. The reader takes a path, so
+// libFuzzer target: any bytes as a form-factor file for the mesh of fuzz_setup.hpp. The reader takes a path, so
 // the bytes go to an in-memory file (memfd) opened by its /proc path: no disk traffic, no change to the API.
 // Accepted, or refused with a one-line hpcgi::UsageError, are the only allowed outcomes.
 #include <sys/mman.h>
@@ -11,7 +11,7 @@
 
 #include "common/errors.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
-#include "tests/fuzz/fuzz_mesh.hpp"
+#include "tests/fuzz/fuzz_setup.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const radiosity::Mesh mesh = fuzz::ff_mesh();

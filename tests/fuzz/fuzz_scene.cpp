@@ -8,13 +8,12 @@
 
 #include "common/errors.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
+#include "tests/fuzz/fuzz_setup.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  radiosity::LoadOptions opt;
-  // The same check as the default limit, reached 16 times sooner: inputs that hit it stay fast to run.
-  opt.max_patches = 1 << 16;
   try {
-    radiosity::load_rrv_scene_string(std::string(reinterpret_cast<const char*>(data), size), opt, "fuzz");
+    radiosity::load_rrv_scene_string(std::string(reinterpret_cast<const char*>(data), size), fuzz::scene_options(),
+                                     "fuzz");
   } catch (const hpcgi::UsageError& e) {
     // A refusal is one line on stderr (common/cli.hpp), however odd the input it quotes.
     if (std::string(e.what()).find_first_of("\r\n") != std::string::npos) std::abort();

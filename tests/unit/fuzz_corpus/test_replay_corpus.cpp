@@ -14,7 +14,7 @@
 #include "common/errors.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
-#include "tests/fuzz/fuzz_mesh.hpp"
+#include "tests/fuzz/fuzz_setup.hpp"
 
 namespace fs = std::filesystem;
 
@@ -60,9 +60,10 @@ void expect_seed(const fs::path& file, const Result& got) {
   EXPECT_EQ(got.outcome, bad ? Outcome::refused : Outcome::loaded) << file << " " << got.message;
 }
 
-// The teapot primitive reads RRV's teapot.obj; where RRV's scenes are absent, a seed with a teapot is refused.
+// As the fuzzer ran them; the teapot primitive reads RRV's teapot.obj, and where RRV's scenes are absent a seed
+// with a teapot is refused.
 radiosity::LoadOptions scene_options() {
-  radiosity::LoadOptions opt;
+  radiosity::LoadOptions opt = fuzz::scene_options();
   opt.primitive_dir = "../shared/scenes/rrv";
   return opt;
 }
