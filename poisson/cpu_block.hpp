@@ -230,46 +230,50 @@ class CpuBlock {
     auto in_grid = [&](long y) { return y0_ + y >= 0 && y0_ + y < n_; };
     double rr = 0, rar = 0;
     for (long y = y0 - 2; y <= y1 + 1; ++y) {
-      // p_k of row y; on own rows also into p, and x += α p_k.
-      {
+      // p_k of row y into the ring; on own rows also into p, in place, with x += α p_k.
+      T* __restrict pk = sc.ring_p(y);
+      if (y >= y0 && y < y1) {
+        const T* __restrict r = row(r_.get(), y);
+        T* __restrict p = row(p_.get(), y);
+        T* __restrict x = row(x_.get(), y);
+#pragma omp simd
+        for (long c = 1; c <= n_; ++c) {
+          const T v = r[c] + b * p[c];
+          pk[c] = v;
+          p[c] = v;
+          x[c] += a * v;
+        }
+      } else {
         const T* __restrict ro = old_r(y);
         const T* __restrict po = old_p(y);
-        T* __restrict pk = sc.ring_p(y);
 #pragma omp simd
         for (long c = 1; c <= n_; ++c) pk[c] = ro[c] + b * po[c];
-        if (y >= y0 && y < y1) {
-          T* __restrict p = row(p_.get(), y);
-          T* __restrict x = row(x_.get(), y);
-#pragma omp simd
-          for (long c = 1; c <= n_; ++c) {
-            p[c] = pk[c];
-            x[c] += a * pk[c];
-          }
-        }
       }
-      // r_{k+1} of row q = y - 1 = r_k - α A p_k; on own rows also into r, with its r·r.
+      // r_{k+1} of row q = y - 1 = r_k - α A p_k into the second ring; on own rows also into r, in place, with
+      // its r·r.
       const long q = y - 1;
       if (q >= y0 - 1) {
         T* __restrict rn = sc.ring_r(q);
+        const T* __restrict pu = sc.ring_p(q - 1);
+        const T* __restrict pc = sc.ring_p(q);
+        const T* __restrict pd = sc.ring_p(q + 1);
         if (!in_grid(q)) {
           std::fill_n(rn, s_, T(0));
+        } else if (q >= y0 && q < y1) {
+          T* __restrict r = row(r_.get(), q);
+          double sum = 0;
+#pragma omp simd reduction(+ : sum)
+          for (long c = 1; c <= n_; ++c) {
+            const T v = r[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c]);
+            rn[c] = v;
+            r[c] = v;
+            sum += static_cast<double>(v) * v;
+          }
+          rr += sum;
         } else {
           const T* __restrict ro = old_r(q);
-          const T* __restrict pu = sc.ring_p(q - 1);
-          const T* __restrict pc = sc.ring_p(q);
-          const T* __restrict pd = sc.ring_p(q + 1);
 #pragma omp simd
           for (long c = 1; c <= n_; ++c) rn[c] = ro[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c]);
-          if (q >= y0 && q < y1) {
-            T* __restrict r = row(r_.get(), q);
-            double s = 0;
-#pragma omp simd reduction(+ : s)
-            for (long c = 1; c <= n_; ++c) {
-              r[c] = rn[c];
-              s += static_cast<double>(rn[c]) * rn[c];
-            }
-            rr += s;
-          }
         }
       }
       // r·Ar of row z = y - 2, from the ring of new r.
