@@ -1,5 +1,6 @@
 // Kernels on the host: the linear algebra of linalg.hpp on vectors of one layout, rows shared out by one
-// execution façade. The serial and openmp backends are this class with SerialExec and OpenMPExec.
+// execution façade. The serial and openmp backends are this class with SerialExec and OpenMPExec. F is the
+// system's matrix in whatever storage it has (system_matrix); the rows of patches with reflectivity 0 are skipped.
 #pragma once
 #include <string>
 #include <utility>
@@ -17,7 +18,8 @@ class CpuKernels final : public Kernels<T> {
 
  public:
   CpuKernels(const System& sys, int vectors, Exec ex)
-      : ex_(std::move(ex)), n_(sys.n), F_(sys.F), rho_(sys.n), e_(sys.n) {
+      : ex_(std::move(ex)), n_(sys.n), F_(system_matrix(sys)), rows_(dense_rows_to_compute(sys.reflectivity)),
+        rho_(sys.n), e_(sys.n) {
     load(rho_, sys.reflectivity);
     load(e_, sys.emission);
     vec_.reserve(vectors);
@@ -26,7 +28,7 @@ class CpuKernels final : public Kernels<T> {
       V& v = vec_.back();
       ex_.rows(n_, [&](size_t i0, size_t i1) {  // first touch by the thread that will own these rows
         for (size_t i = i0; i < i1; ++i)
-          for (int c = 0; c < 3; ++c) v(i, c) = 0;
+          for (int c = 0; c < V::kChannels; ++c) v(i, c) = 0;
       });
     }
   }
@@ -41,26 +43,33 @@ class CpuKernels final : public Kernels<T> {
     });
   }
   void matvec(int y, int x, double a, double c, double d) override {
-    affine_matvec(ex_, F_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d));
+    affine_matvec(ex_, F_, rows_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d));
   }
   Rgb dot(int x, int y) override { return radiosity::dot(ex_, vec_.at(x), vec_.at(y)); }
   Rgb dist2(int x, int y) override { return radiosity::dist2(ex_, vec_.at(x), vec_.at(y)); }
   void axpby(int y, const Rgb& a, int x, const Rgb& b) override { radiosity::axpby(ex_, vec_.at(y), a, vec_.at(x), b); }
   void copy(int y, int x) override { radiosity::copy(ex_, vec_.at(y), vec_.at(x)); }
   int threads() const override { return ex_.threads(); }
-  double matrix_bytes() const override { return 4.0 * double(n_) * double(n_); }
+  int channels() const override { return V::kChannels; }
+  // Dense: the rows computed times n values; csr: the kept values, their columns and the row starts.
+  double matrix_bytes() const override {
+    const double v = double(value_bytes(F_.values));
+    if (F_.storage == FFStorage::csr) return double(F_.row_start[n_]) * (v + 4) + 8.0 * double(n_ + 1);
+    return v * double(rows_.empty() ? n_ : rows_.size()) * double(n_);
+  }
 
  private:
   void load(V& dst, const std::vector<Rgb>& src) {
     ex_.rows(n_, [&](size_t i0, size_t i1) {
       for (size_t i = i0; i < i1; ++i)
-        for (int c = 0; c < 3; ++c) dst(i, c) = T(src[i][c]);
+        for (int c = 0; c < V::kChannels; ++c) dst(i, c) = T(src[i][c]);
     });
   }
 
   Exec ex_;
   size_t n_;
-  const float* F_;
+  FFMatrixView F_;
+  std::vector<int32_t> rows_;  // the rows a dense F's product computes; empty: all
   V rho_, e_;
   std::vector<V> vec_;
 };

@@ -23,6 +23,8 @@ class Kernels {
   virtual void copy(int y, int x) = 0;
   virtual int threads() const = 0;
   virtual double matrix_bytes() const = 0;  // bytes one matvec reads from the matrix
+  // Channels it solves: 3, or 1 for a grey system solved once (its dots and downloads give r = g = b).
+  virtual int channels() const { return 3; }
 };
 
 }  // namespace radiosity

@@ -2,7 +2,10 @@
 // written once for both (pbrt-v4's lesson). v(i, c) is patch i, channel c; the hot loops take v.data(c) and step
 // kStep (a compile-time constant, so the compiler sees unit-stride or 3-interleaved loads and vectorizes them):
 //   Aos: one {r, g, b} record per patch, RRV's Color (report §3.7, Figure 3.2);
-//   Soa: one contiguous array per channel, what BLAS (cuBLAS sgemv/sdot, report §3.8.1) takes.
+//   Soa: one contiguous array per channel, what BLAS (cuBLAS sgemv/sdot, report §3.8.1) takes;
+//   Grey: one array, the single channel of a scene whose reflectivities and emissions are all grey: the three
+//         channels would be three copies of one solve, so it is solved once (kChannels = 1; v(i, c) is the
+//         same value for every c, so a caller reading r, g, b gets three equal channels).
 // The memory is left uninitialised on purpose: the backend's threads touch their own rows first (first-touch
 // placement on multi-socket nodes).
 #pragma once
@@ -42,6 +45,7 @@ class Aos {
  public:
   using value_type = T;
   static constexpr size_t kStep = 3;
+  static constexpr int kChannels = 3;
   explicit Aos(size_t n) : n_(n), buf_(3 * n) {}
   size_t size() const { return n_; }
   T* data(int c) { return buf_.get() + c; }
@@ -59,6 +63,7 @@ class Soa {
  public:
   using value_type = T;
   static constexpr size_t kStep = 1;
+  static constexpr int kChannels = 3;
   // Each channel starts on a cache line, so the row blocks of every channel are aligned alike.
   explicit Soa(size_t n) : n_(n), stride_(round_up(n, kRowAlign)), buf_(3 * stride_) {}
   size_t size() const { return n_; }
@@ -69,6 +74,24 @@ class Soa {
 
  private:
   size_t n_, stride_;
+  AlignedBuffer<T> buf_;
+};
+
+template <class T>
+class Grey {
+ public:
+  using value_type = T;
+  static constexpr size_t kStep = 1;
+  static constexpr int kChannels = 1;
+  explicit Grey(size_t n) : n_(n), buf_(n) {}
+  size_t size() const { return n_; }
+  T* data(int) { return buf_.get(); }
+  const T* data(int) const { return buf_.get(); }
+  T& operator()(size_t i, int) { return buf_.get()[i]; }
+  T operator()(size_t i, int) const { return buf_.get()[i]; }
+
+ private:
+  size_t n_;
   AlignedBuffer<T> buf_;
 };
 

@@ -1,94 +1,218 @@
 // The linear algebra of the solvers (report §3.7: matrix-vector product, dot, axpby), written once over the
-// layout accessor v(i, c) and the row-sharing façade of exec.hpp, so one source serves AOS and SOA, serial and
-// OpenMP, float and double. Dots accumulate in double whatever T is: they decide convergence and cost O(n).
+// layout accessor v(i, c) and the row-sharing façade of exec.hpp, so one source serves AOS, SOA and grey, serial
+// and OpenMP, float and double, and every storage of F. Dots accumulate in double whatever T is: they decide
+// convergence and cost O(n).
 #pragma once
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/half.hpp"
 #include "radiosity/solve/layout.hpp"
 
 namespace radiosity {
 
-// Rows [i0, i1) of y = a·x + c·ρ ⊙ (F x) + d·e, all three channels in one pass over F: each F_ij is read once
-// and feeds three accumulators. This pass moves 4n² bytes against O(n) for everything else, so it sets the speed
-// of the solver. Four rows at a time: four streams of F per thread keep more misses in flight than one or two (a
-// read sweep on this project's 2-core EPYC VM runs about 1.8 times as fast with four streams per core as with
-// one), and each x_j, once loaded (and for AOS de-interleaved, the costly part), serves four F values. i0 is a
-// multiple of 4 (blocks start on kRowAlign), so a row is grouped alike whatever the thread count.
-// Kept out of line so that every backend and thread count runs the same machine code for a row (inlined, the
-// compiler may vectorize each caller's copy differently and move the last bits).
-template <class V>
-[[gnu::noinline]] void matvec_rows(const float* F, const V& x, V& y, const V& rho, const V& e,
-                                   typename V::value_type a, typename V::value_type c, typename V::value_type d,
-                                   size_t i0, size_t i1) {
+// How the kernels read a stored form factor: as float, whatever it is stored as (ff_matrix.hpp).
+struct Float32Values {
+  using stored = float;
+  static float get(const float* p, size_t k) { return p[k]; }
+};
+struct Float16Values {
+  using stored = uint16_t;
+  static float get(const uint16_t* p, size_t k) { return half_to_float(p[k]); }
+};
+struct BFloat16Values {
+  using stored = uint16_t;
+  static float get(const uint16_t* p, size_t k) { return bfloat16_to_float(p[k]); }
+};
+
+// Rows of y = a·x + c·ρ ⊙ (F x) + d·e for a dense F, all channels in one pass over F: each F_ij is read once and
+// feeds every channel's accumulator. This pass moves n² values against O(n) for everything else, so it sets the
+// speed of the solver. The rows are row(k), k in [k0, k1), with row(k) = k, or rows[k] when only some rows are
+// computed (the others belong to patches with reflectivity 0; see affine_matvec). Two rows at a time, so that each
+// x_j, once loaded (and for AOS de-interleaved), serves two F values; k0 is even, so a row is paired alike whatever
+// the thread count. Kept out of line so that every backend and thread count runs the same machine code for a row
+// (inlined, the compiler may vectorize each caller's copy differently and move the last bits).
+template <class Val, class V>
+[[gnu::noinline]] void matvec_rows(const typename Val::stored* F, const int32_t* rows, const V& x, V& y,
+                                   const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
+                                   typename V::value_type d, size_t k0, size_t k1) {
   using T = typename V::value_type;
   constexpr size_t S = V::kStep;
-  static_assert(kRowAlign % 4 == 0, "row blocks must start on a group of four rows");
   const size_t n = x.size();
   const T* __restrict x0 = x.data(0);
   const T* __restrict x1 = x.data(1);
   const T* __restrict x2 = x.data(2);
+  auto row = [&](size_t k) { return rows ? size_t(rows[k]) : k; };
   auto store = [&](size_t i, T s0, T s1, T s2) {
     y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s0 + d * e(i, 0);
-    y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s1 + d * e(i, 1);
-    y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s2 + d * e(i, 2);
+    if constexpr (V::kChannels == 3) {
+      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s1 + d * e(i, 1);
+      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s2 + d * e(i, 2);
+    }
   };
-  size_t i = i0;
-  for (; i + 3 < i1; i += 4) {
-    const float* __restrict Fa = F + i * n;
-    const float* __restrict Fb = Fa + n;
-    const float* __restrict Fc = Fb + n;
-    const float* __restrict Fd = Fc + n;
-    T a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0, d0 = 0, d1 = 0, d2 = 0;
-    // The simd reduction lets the compiler keep partial sums per lane (it may not reorder a plain floating-point
-    // sum); without it the loop stays scalar.
-#pragma omp simd reduction(+ : a0, a1, a2, b0, b1, b2, c0, c1, c2, d0, d1, d2)
-    for (size_t j = 0; j < n; ++j) {
-      const T u0 = x0[j * S], u1 = x1[j * S], u2 = x2[j * S];
-      const T fa = Fa[j], fb = Fb[j], fc = Fc[j], fd = Fd[j];
-      a0 += fa * u0;
-      a1 += fa * u1;
-      a2 += fa * u2;
-      b0 += fb * u0;
-      b1 += fb * u1;
-      b2 += fb * u2;
-      c0 += fc * u0;
-      c1 += fc * u1;
-      c2 += fc * u2;
-      d0 += fd * u0;
-      d1 += fd * u1;
-      d2 += fd * u2;
+  size_t k = k0;
+  for (; k + 1 < k1; k += 2) {
+    const size_t ia = row(k), ib = row(k + 1);
+    const typename Val::stored* __restrict Fa = F + ia * n;
+    const typename Val::stored* __restrict Fb = F + ib * n;
+    T a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0;
+    if constexpr (V::kChannels == 3) {
+      // The simd reduction lets the compiler keep partial sums per lane (it may not reorder a plain floating-point
+      // sum); without it the loop stays scalar.
+#pragma omp simd reduction(+ : a0, a1, a2, b0, b1, b2)
+      for (size_t j = 0; j < n; ++j) {
+        const T u0 = x0[j * S], u1 = x1[j * S], u2 = x2[j * S];
+        const T fa = Val::get(Fa, j), fb = Val::get(Fb, j);
+        a0 += fa * u0;
+        a1 += fa * u1;
+        a2 += fa * u2;
+        b0 += fb * u0;
+        b1 += fb * u1;
+        b2 += fb * u2;
+      }
+    } else {
+#pragma omp simd reduction(+ : a0, b0)
+      for (size_t j = 0; j < n; ++j) {
+        const T u0 = x0[j];
+        a0 += T(Val::get(Fa, j)) * u0;
+        b0 += T(Val::get(Fb, j)) * u0;
+      }
     }
-    store(i, a0, a1, a2);
-    store(i + 1, b0, b1, b2);
-    store(i + 2, c0, c1, c2);
-    store(i + 3, d0, d1, d2);
+    store(ia, a0, a1, a2);
+    store(ib, b0, b1, b2);
   }
-  for (; i < i1; ++i) {  // the last rows when n is not a multiple of 4
-    const float* __restrict Fa = F + i * n;
+  if (k < k1) {  // the last row of an odd count
+    const size_t ia = row(k);
+    const typename Val::stored* __restrict Fa = F + ia * n;
     T a0 = 0, a1 = 0, a2 = 0;
+    if constexpr (V::kChannels == 3) {
 #pragma omp simd reduction(+ : a0, a1, a2)
-    for (size_t j = 0; j < n; ++j) {
-      const T fa = Fa[j];
-      a0 += fa * x0[j * S];
-      a1 += fa * x1[j * S];
-      a2 += fa * x2[j * S];
+      for (size_t j = 0; j < n; ++j) {
+        const T fa = Val::get(Fa, j);
+        a0 += fa * x0[j * S];
+        a1 += fa * x1[j * S];
+        a2 += fa * x2[j * S];
+      }
+    } else {
+#pragma omp simd reduction(+ : a0)
+      for (size_t j = 0; j < n; ++j) a0 += T(Val::get(Fa, j)) * x0[j];
     }
-    store(i, a0, a1, a2);
+    store(ia, a0, a1, a2);
   }
 }
 
-// y = a·x + c·ρ ⊙ (F x) + d·e. With (a, c, d) = (0, 1, 1) it is a Jacobi step, (1, -1, 0) the product A x,
-// (-1, 1, 1) the residual e - A x. y must not be x. F stays float32 whatever T is.
+// Rows [i0, i1) of the same product for F in compressed sparse rows: row i's kept values and their columns, x
+// gathered by column. A row is summed by one loop whatever the thread count, so the bits do not depend on it.
+template <class Val, class V>
+[[gnu::noinline]] void matvec_csr_rows(const typename Val::stored* F, const int32_t* col, const int64_t* start,
+                                       const V& x, V& y, const V& rho, const V& e, typename V::value_type a,
+                                       typename V::value_type c, typename V::value_type d, size_t i0, size_t i1) {
+  using T = typename V::value_type;
+  constexpr size_t S = V::kStep;
+  const T* __restrict x0 = x.data(0);
+  const T* __restrict x1 = x.data(1);
+  const T* __restrict x2 = x.data(2);
+  for (size_t i = i0; i < i1; ++i) {
+    const size_t k0 = size_t(start[i]), k1 = size_t(start[i + 1]);
+    T s0 = 0, s1 = 0, s2 = 0;
+    if constexpr (V::kChannels == 3) {
+#pragma omp simd reduction(+ : s0, s1, s2)
+      for (size_t k = k0; k < k1; ++k) {
+        const size_t j = size_t(col[k]) * S;
+        const T f = Val::get(F, k);
+        s0 += f * x0[j];
+        s1 += f * x1[j];
+        s2 += f * x2[j];
+      }
+      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s1 + d * e(i, 1);
+      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s2 + d * e(i, 2);
+    } else {
+#pragma omp simd reduction(+ : s0)
+      for (size_t k = k0; k < k1; ++k) s0 += T(Val::get(F, k)) * x0[col[k]];
+    }
+    y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s0 + d * e(i, 0);
+  }
+}
+
+// y = a·x + d·e on rows whose reflectivity is 0 in every channel: their ρ ⊙ (F x) is 0 whatever F x is.
+template <class V>
+void matvec_skipped_row(const V& x, V& y, const V& e, typename V::value_type a, typename V::value_type d, size_t i) {
+  for (int ch = 0; ch < V::kChannels; ++ch) y(i, ch) = a * x(i, ch) + d * e(i, ch);
+}
+
+// y = a·x + c·ρ ⊙ (F x) + d·e for a dense F of stored values Val. `rows`: the rows to compute, increasing (the
+// others are patches with reflectivity 0, given a·x + d·e), or empty for all. With rows, the pairs are (rows[2m],
+// rows[2m+1]) and the thread whose block holds a pair's first row computes it, so the pairing, and the bits, are
+// the same for any thread count. y must not be x.
+template <class Val, class Exec, class V>
+void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vector<int32_t>& rows, const V& x, V& y,
+                  const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
+                  typename V::value_type d) {
+  if (rows.empty()) {
+    ex.rows(x.size(), [&](size_t i0, size_t i1) { matvec_rows<Val>(F, nullptr, x, y, rho, e, a, c, d, i0, i1); });
+    return;
+  }
+  ex.rows(x.size(), [&](size_t i0, size_t i1) {
+    const size_t lo = size_t(std::lower_bound(rows.begin(), rows.end(), int64_t(i0)) - rows.begin());
+    const size_t hi = size_t(std::lower_bound(rows.begin(), rows.end(), int64_t(i1)) - rows.begin());
+    for (size_t i = i0, k = lo; i < i1; ++i) {
+      if (k < hi && size_t(rows[k]) == i)
+        ++k;
+      else
+        matvec_skipped_row(x, y, e, a, d, i);
+    }
+    const size_t k0 = (lo + 1) / 2 * 2, k1 = std::min((hi + 1) / 2 * 2, rows.size());
+    if (k0 < k1) matvec_rows<Val>(F, rows.data(), x, y, rho, e, a, c, d, k0, k1);
+  });
+}
+
+// The product for any stored matrix (ff_matrix.hpp): dispatched once per pass to the kernel of its storage and
+// values. The float16 scale is folded into c (a power of two: exact).
+template <class Exec, class V>
+void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows, const V& x, V& y,
+                   const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
+                   typename V::value_type d) {
+  using T = typename V::value_type;
+  const T cs = T(double(c) * F.scale);
+  auto run = [&](auto values) {
+    using Val = decltype(values);
+    const auto* data = static_cast<const typename Val::stored*>(F.data);
+    if (F.storage == FFStorage::csr)
+      ex.rows(x.size(), [&](size_t i0, size_t i1) {
+        matvec_csr_rows<Val>(data, F.col, F.row_start, x, y, rho, e, a, cs, d, i0, i1);
+      });
+    else
+      dense_matvec<Val>(ex, data, rows, x, y, rho, e, a, cs, d);
+  };
+  switch (F.values) {
+    case FFValues::float32: run(Float32Values{}); break;
+    case FFValues::float16: run(Float16Values{}); break;
+    case FFValues::bfloat16: run(BFloat16Values{}); break;
+  }
+}
+
+// y = a·x + c·ρ ⊙ (F x) + d·e for dense float32 F, every row. With (a, c, d) = (0, 1, 1) it is a Jacobi step,
+// (1, -1, 0) the product A x, (-1, 1, 1) the residual e - A x. y must not be x.
 template <class Exec, class V>
 void affine_matvec(const Exec& ex, const float* F, const V& x, V& y, const V& rho, const V& e,
                    typename V::value_type a, typename V::value_type c, typename V::value_type d) {
-  ex.rows(x.size(), [&](size_t i0, size_t i1) { matvec_rows(F, x, y, rho, e, a, c, d, i0, i1); });
+  dense_matvec<Float32Values>(ex, F, {}, x, y, rho, e, a, c, d);
 }
 
-// Σ_i x_ic y_ic per channel.
+// Σ_i x_ic y_ic per channel (one channel: the same sum for r, g and b).
 template <class Exec, class V>
 Rgb dot(const Exec& ex, const V& x, const V& y) {
+  if constexpr (V::kChannels == 1)
+    return ex.reduce(x.size(), [&](size_t i0, size_t i1) {
+      double s = 0;
+#pragma omp simd reduction(+ : s)
+      for (size_t i = i0; i < i1; ++i) s += double(x(i, 0)) * y(i, 0);
+      return Rgb{s, s, s};
+    });
   return ex.reduce(x.size(), [&](size_t i0, size_t i1) {
     double s0 = 0, s1 = 0, s2 = 0;
 #pragma omp simd reduction(+ : s0, s1, s2)
@@ -104,6 +228,16 @@ Rgb dot(const Exec& ex, const V& x, const V& y) {
 // Σ_i (x_ic - y_ic)² per channel: for Jacobi, the squared residual of the previous iterate (see jacobi.cpp).
 template <class Exec, class V>
 Rgb dist2(const Exec& ex, const V& x, const V& y) {
+  if constexpr (V::kChannels == 1)
+    return ex.reduce(x.size(), [&](size_t i0, size_t i1) {
+      double s = 0;
+#pragma omp simd reduction(+ : s)
+      for (size_t i = i0; i < i1; ++i) {
+        const double d0 = double(x(i, 0)) - y(i, 0);
+        s += d0 * d0;
+      }
+      return Rgb{s, s, s};
+    });
   return ex.reduce(x.size(), [&](size_t i0, size_t i1) {
     double s0 = 0, s1 = 0, s2 = 0;
 #pragma omp simd reduction(+ : s0, s1, s2)
@@ -117,11 +251,19 @@ Rgb dist2(const Exec& ex, const V& x, const V& y) {
   });
 }
 
-// y = a ⊙ x + b ⊙ y with one coefficient per channel.
+// y = a ⊙ x + b ⊙ y with one coefficient per channel (one channel: a[0], b[0]; the methods give the three
+// channels of a grey system equal coefficients, as their dots are equal).
 template <class Exec, class V>
 void axpby(const Exec& ex, V& y, const Rgb& a, const V& x, const Rgb& b) {
   using T = typename V::value_type;
   const T a0 = T(a[0]), a1 = T(a[1]), a2 = T(a[2]), b0 = T(b[0]), b1 = T(b[1]), b2 = T(b[2]);
+  if constexpr (V::kChannels == 1) {
+    ex.rows(x.size(), [&](size_t i0, size_t i1) {
+#pragma omp simd
+      for (size_t i = i0; i < i1; ++i) y(i, 0) = a0 * x(i, 0) + b0 * y(i, 0);
+    });
+    return;
+  }
   ex.rows(x.size(), [&](size_t i0, size_t i1) {
 #pragma omp simd
     for (size_t i = i0; i < i1; ++i) {
@@ -136,7 +278,7 @@ template <class Exec, class V>
 void copy(const Exec& ex, V& y, const V& x) {
   ex.rows(x.size(), [&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i)
-      for (int c = 0; c < 3; ++c) y(i, c) = x(i, c);
+      for (int c = 0; c < V::kChannels; ++c) y(i, c) = x(i, c);
   });
 }
 

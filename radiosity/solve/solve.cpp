@@ -37,6 +37,7 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
   res.matrix_passes = run.matrix_passes;
   res.matrix_bytes = k->matrix_bytes();
   res.threads = k->threads();
+  res.channels = k->channels();
   return res;
 }
 
@@ -89,12 +90,12 @@ const std::vector<SolveBackend>& solve_backends() {
   static const std::vector<SolveBackend> list = {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
        {"jacobi"}, {"aos"}, {"float"}, false, true, "", run_original},
-      {"serial", "dense kernels written once for both layouts, one thread",
+      {"serial", "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread",
        {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
-       run_kernels<make_serial<float>, make_serial<double>>},
+       run_kernels<make_serial<float>, make_serial<double>>, true, true},
       {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines",
        {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
-       run_kernels<make_openmp<float>, make_openmp<double>>},
+       run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
        {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(run_cuda)},
       {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
@@ -105,16 +106,34 @@ const std::vector<SolveBackend>& solve_backends() {
   return list;
 }
 
+const SolveBackend* find_backend(const std::string& name) {
+  for (const SolveBackend& x : solve_backends())
+    if (x.name == name) return &x;
+  return nullptr;
+}
+
+bool solve_one_channel(const System& sys, const SolveConfig& cfg) {
+  const SolveBackend* b = find_backend(cfg.backend);
+  return cfg.channels == "auto" && b && b->one_channel && is_grey(sys);
+}
+
 SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
   check_system(sys);
-  const SolveBackend* b = nullptr;
-  std::vector<std::string> names;
-  for (const SolveBackend& x : solve_backends()) {
-    names.push_back(x.name);
-    if (x.name == cfg.backend) b = &x;
+  const SolveBackend* b = find_backend(cfg.backend);
+  if (!b) {
+    std::vector<std::string> names;
+    for (const SolveBackend& x : solve_backends()) names.push_back(x.name);
+    throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
   }
-  if (!b) throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
   if (!b->built) throw hpcgi::UsageError("solver backend '" + b->name + "' is not available: " + b->why_not);
+  if (sys.stored.data && !b->any_storage) {
+    std::string which;
+    for (const SolveBackend& x : solve_backends())
+      if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
+    throw hpcgi::UsageError("backend '" + b->name + "' reads dense float32 form factors only, not " +
+                            to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
+                            " read any storage)");
+  }
   check_choice("method", cfg.method, {"jacobi", "bicgstab"}, *b, b->methods);
   check_choice("layout", cfg.layout, {"aos", "soa"}, *b, b->layouts);
   check_choice("precision", cfg.precision, {"float", "double"}, *b, b->precisions);
@@ -132,6 +151,8 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
   if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
   if (cfg.ff_threshold != 0 && b->name != "original")
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
+  if (cfg.channels != "auto" && cfg.channels != "3")
+    throw hpcgi::UsageError("channels must be auto or 3, got '" + cfg.channels + "'");
   return b->run(sys, cfg, callback);
 }
 

@@ -19,7 +19,8 @@ struct SolveConfig {
   std::string method = "jacobi";    // jacobi | bicgstab
   std::string layout = "aos";       // aos | soa
   std::string backend = "openmp";   // a name from solve_backends()
-  std::string precision = "float";  // float | double: the working precision of B (F is always float32)
+  std::string precision = "float";  // float | double: the working precision of B and of the sums (F is stored as
+                                    //   the System holds it: float32, or 16-bit values widened in the sums)
   long steps = 0;                   // > 0: exactly this many Jacobi steps, no tolerance (RRV's default is 32)
   double tol = 1e-6;                // steps == 0: stop when every channel's relative residual is <= tol
   long max_iter = 1000;             // steps == 0: give up after this many iterations
@@ -28,6 +29,8 @@ struct SolveConfig {
   bool fused = false;               // cublas: one Sgemm over the three channels instead of one Sgemv per channel
   double distribution = 0.5;        // hybrid: the first ceil(d n) rows on the GPU, the rest on the CPU; d in [0, 1]
   bool overlap = false;             // hybrid: pinned staging and async copies that overlap the CPU's rows
+  std::string channels = "auto";    // auto: a grey system (is_grey) is solved as one channel where the backend can;
+                                    //   3: always three
 };
 
 enum class SolveStatus {
@@ -43,12 +46,14 @@ const char* to_string(SolveStatus s);
 struct SolveResult {
   std::vector<Rgb> B;             // the radiosity the run ends with (double, whatever the working precision)
   long iterations = 0;            // Jacobi steps or BiCG-STAB iterations that produced B
+  int channels = 3;               // channels solved: 1 for a grey system solved once (B's r, g, b are equal)
   Rgb rel_residual{0, 0, 0};      // relative_residual(system, B): recomputed in double, same for every backend
   SolveStatus status = SolveStatus::max_iter;
   std::string detail;             // why a breakdown or nonfinite status, empty otherwise
   long matrix_passes = 0;         // passes over the matrix during the solve (Jacobi 1/step, BiCG-STAB 2/iteration
                                   //   plus 1 per residual recomputation)
-  double matrix_bytes = 0;        // bytes one pass reads: 4n² dense, the (pointer, float) pairs for `original`
+  double matrix_bytes = 0;        // bytes one pass reads: 4n² dense float32 (the rows computed), the kept values
+                                  //   with their columns for csr, the (pointer, float) pairs for `original`
   int threads = 1;
   double setup_s = 0;             // building the backend's data and loading B0
   double solve_s = 0;             // the iterations, without the time spent in the callback
@@ -76,8 +81,13 @@ struct SolveBackend {
   bool built;         // compiled into this binary
   std::string why_not;
   BackendRun run;
+  bool any_storage = false;  // reads F in any storage (System::stored); the others need dense float32 F
+  bool one_channel = false;  // solves a grey system as one channel
 };
 const std::vector<SolveBackend>& solve_backends();
+
+// Whether this run solves one channel: cfg.channels is auto, the system is grey and the backend can.
+bool solve_one_channel(const System& sys, const SolveConfig& cfg);
 
 // Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
 // precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/errors.hpp"
+#include "radiosity/solve/half.hpp"
 
 namespace radiosity {
 
@@ -32,9 +33,23 @@ System make_system(const Mesh& mesh, const float* F) {
   return s;
 }
 
+FFMatrixView system_matrix(const System& sys) {
+  return sys.stored.data ? sys.stored : dense_float32_view(sys.F, sys.n);
+}
+
+bool is_grey(const System& sys) {
+  auto grey = [](const Rgb& v) { return v[0] == v[1] && v[1] == v[2]; };
+  return std::all_of(sys.emission.begin(), sys.emission.end(), grey) &&
+         std::all_of(sys.reflectivity.begin(), sys.reflectivity.end(), grey) &&
+         std::all_of(sys.initial.begin(), sys.initial.end(), grey);
+}
+
 void check_system(const System& sys) {
   if (sys.n == 0) throw hpcgi::UsageError("radiosity system: no patches");
-  if (!sys.F) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
+  if (!sys.F && !sys.stored.data) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
+  if (sys.stored.data && sys.stored.n != sys.n)
+    throw hpcgi::UsageError("radiosity system: a form-factor matrix of " + std::to_string(sys.stored.n) +
+                            " patches for " + std::to_string(sys.n));
   auto check = [&](const std::vector<Rgb>& v, const char* what) {
     if (v.size() != sys.n)
       throw hpcgi::UsageError(std::string("radiosity system: ") + std::to_string(v.size()) + " " + what +
@@ -54,26 +69,50 @@ Rgb residual_scale(const System& sys) {
   return scale;
 }
 
+namespace {
+
+// Σ_j F_ij B_j per channel in double, for row i of any storage.
+template <class Get>
+Rgb row_product(const FFMatrixView& F, Get get, size_t i, const std::vector<Rgb>& B) {
+  double s0 = 0, s1 = 0, s2 = 0;
+  auto add = [&](size_t k, size_t j) {
+    const double f = get(k);
+    s0 += f * B[j][0];
+    s1 += f * B[j][1];
+    s2 += f * B[j][2];
+  };
+  if (F.storage == FFStorage::csr)
+    for (size_t k = size_t(F.row_start[i]); k < size_t(F.row_start[i + 1]); ++k) add(k, size_t(F.col[k]));
+  else
+    for (size_t j = 0; j < F.n; ++j) add(i * F.n + j, j);
+  return {s0 * F.scale, s1 * F.scale, s2 * F.scale};
+}
+
+}  // namespace
+
 Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) {
   check_system(sys);
   if (B.size() != sys.n) throw hpcgi::UsageError("relative_residual: B has the wrong size");
   const size_t n = sys.n;
+  const FFMatrixView F = system_matrix(sys);
+  const auto* f32 = static_cast<const float*>(F.data);
+  const auto* u16 = static_cast<const uint16_t*>(F.data);
   double r0 = 0, r1 = 0, r2 = 0;
 #pragma omp parallel for schedule(static) reduction(+ : r0, r1, r2)
   for (size_t i = 0; i < n; ++i) {
-    const float* Fi = sys.F + i * n;
-    double s0 = 0, s1 = 0, s2 = 0;
-    for (size_t j = 0; j < n; ++j) {
-      const double f = Fi[j];
-      s0 += f * B[j][0];
-      s1 += f * B[j][1];
-      s2 += f * B[j][2];
+    const Rgb& rho = sys.reflectivity[i];
+    Rgb s{0, 0, 0};
+    if (row_needed(rho)) {  // a patch with reflectivity 0 takes nothing from F (B_i = E_i)
+      switch (F.values) {
+        case FFValues::float32: s = row_product(F, [&](size_t k) { return f32[k]; }, i, B); break;
+        case FFValues::float16: s = row_product(F, [&](size_t k) { return half_to_float(u16[k]); }, i, B); break;
+        case FFValues::bfloat16: s = row_product(F, [&](size_t k) { return bfloat16_to_float(u16[k]); }, i, B); break;
+      }
     }
     const Rgb& e = sys.emission[i];
-    const Rgb& rho = sys.reflectivity[i];
-    const double d0 = e[0] - (B[i][0] - rho[0] * s0);
-    const double d1 = e[1] - (B[i][1] - rho[1] * s1);
-    const double d2 = e[2] - (B[i][2] - rho[2] * s2);
+    const double d0 = e[0] - (B[i][0] - rho[0] * s[0]);
+    const double d1 = e[1] - (B[i][1] - rho[1] * s[1]);
+    const double d2 = e[2] - (B[i][2] - rho[2] * s[2]);
     r0 += d0 * d0;
     r1 += d1 * d1;
     r2 += d2 * d2;

@@ -5,12 +5,16 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/ff_matrix.hpp"
 
 namespace radiosity {
 
 struct System {
   size_t n = 0;
   const float* F = nullptr;        // n×n row-major, F[i*n + j], F_ii = 0; not owned (it comes from the form-factor file)
+  // F in another storage (csr, 16-bit values: ff_matrix.hpp), not owned. When its data is set it is the system's
+  // matrix, F may be null, and only the backends that read any storage (serial, openmp) run it.
+  FFMatrixView stored;
   std::vector<Rgb> emission;       // E, n entries
   std::vector<Rgb> reflectivity;   // ρ, n entries
   std::vector<Rgb> initial;        // B0, n entries (RRV: rrv_initial_radiosity)
@@ -22,6 +26,12 @@ std::vector<Rgb> rrv_initial_radiosity(const std::vector<Rgb>& attribute, const 
 // The system of a mesh whose form factors are F (n = mesh.size()), starting from RRV's B0.
 System make_system(const Mesh& mesh, const float* F);
 
+// The system's form factors as the kernels read them: `stored` when set, else F as dense float32.
+FFMatrixView system_matrix(const System& sys);
+
+// Whether every emission, reflectivity and starting radiosity has r = g = b: then the three channels are one solve.
+bool is_grey(const System& sys);
+
 // Throws hpcgi::UsageError if the sizes disagree, F is missing or there are no patches. Values are not checked:
 // a NaN in the input is the solver's to report (status nonfinite), not a usage error.
 void check_system(const System& sys);
@@ -31,7 +41,7 @@ void check_system(const System& sys);
 Rgb residual_scale(const System& sys);
 
 // ‖e_c - A_c b_c‖₂ / residual_scale_c per channel, computed in double from B whatever precision produced it (the
-// independent check every backend's answer gets; OpenMP threads over rows).
+// independent check every backend's answer gets; OpenMP threads over rows), on system_matrix(sys).
 Rgb relative_residual(const System& sys, const std::vector<Rgb>& B);
 
 }  // namespace radiosity

@@ -1,0 +1,180 @@
+#include "radiosity/solve/ff_matrix.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/errors.hpp"
+#include "radiosity/solve/half.hpp"
+
+namespace radiosity {
+namespace {
+
+bool is_kept(float f, double threshold) { return !(std::fabs(double(f)) <= threshold); }  // NaN is kept
+
+// The power of two 2^k (k >= 0) that brings the largest |F_ij| closest to half's maximum 65504 without passing it.
+double half_scale_up(const float* F, size_t count) {
+  float biggest = 0;
+#pragma omp parallel for reduction(max : biggest) schedule(static)
+  for (size_t k = 0; k < count; ++k)
+    if (std::isfinite(F[k])) biggest = std::max(biggest, std::fabs(F[k]));
+  if (biggest == 0) return 1;
+  const int k = static_cast<int>(std::floor(std::log2(65504.0 / biggest)));
+  return std::ldexp(1.0, std::clamp(k, 0, 40));
+}
+
+}  // namespace
+
+const char* to_string(FFStorage s) { return s == FFStorage::csr ? "csr" : "dense"; }
+
+const char* to_string(FFValues v) {
+  switch (v) {
+    case FFValues::float32: return "float32";
+    case FFValues::float16: return "float16";
+    case FFValues::bfloat16: return "bfloat16";
+  }
+  return "unknown";
+}
+
+FFStorage parse_ff_storage(const std::string& s) {
+  if (s == "dense") return FFStorage::dense;
+  if (s == "csr") return FFStorage::csr;
+  throw hpcgi::UsageError("unknown form-factor storage '" + s + "' (known: dense, csr)");
+}
+
+FFValues parse_ff_values(const std::string& s) {
+  if (s == "float32") return FFValues::float32;
+  if (s == "float16") return FFValues::float16;
+  if (s == "bfloat16") return FFValues::bfloat16;
+  throw hpcgi::UsageError("unknown form-factor precision '" + s + "' (known: float32, float16, bfloat16)");
+}
+
+size_t value_bytes(FFValues v) { return v == FFValues::float32 ? 4 : 2; }
+
+FFMatrixView dense_float32_view(const float* F, size_t n) {
+  FFMatrixView v;
+  v.n = n;
+  v.data = F;
+  return v;
+}
+
+std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity) {
+  if (std::all_of(reflectivity.begin(), reflectivity.end(), row_needed)) return {};
+  std::vector<int32_t> rows;
+  for (size_t i = 0; i < reflectivity.size(); ++i)
+    if (row_needed(reflectivity[i])) rows.push_back(static_cast<int32_t>(i));
+  return rows;
+}
+
+size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold) {
+  size_t count = 0;
+#pragma omp parallel for reduction(+ : count) schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    if (!row_needed(reflectivity[i])) continue;
+    const float* Fi = F + i * n;
+    for (size_t j = 0; j < n; ++j) count += is_kept(Fi[j], threshold);
+  }
+  return count;
+}
+
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept) {
+  const double v = double(value_bytes(values));
+  if (storage == FFStorage::dense) return v * double(n) * double(n);
+  return double(kept) * (v + sizeof(int32_t)) + sizeof(int64_t) * double(n + 1);
+}
+
+FFStorage cheaper_storage(FFValues values, size_t n, size_t kept) {
+  return ff_storage_bytes(FFStorage::csr, values, n, kept) < ff_storage_bytes(FFStorage::dense, values, n, kept)
+             ? FFStorage::csr
+             : FFStorage::dense;
+}
+
+size_t apply_threshold(float* F, size_t n, double threshold) {
+  size_t nonzero = 0;
+#pragma omp parallel for reduction(+ : nonzero) schedule(static)
+  for (size_t k = 0; k < n * n; ++k) {
+    if (!is_kept(F[k], threshold)) F[k] = 0;
+    nonzero += F[k] != 0;
+  }
+  return nonzero;
+}
+
+FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
+                                   const FFMatrixOptions& opt)
+    : n_(n), opt_(opt) {
+  if (!(opt.threshold >= 0 && std::isfinite(opt.threshold)))
+    throw hpcgi::UsageError("form-factor threshold must be finite and >= 0");
+  if (reflectivity.size() != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
+  if (n > size_t(std::numeric_limits<int32_t>::max()))
+    throw hpcgi::UsageError("form-factor matrix: " + std::to_string(n) + " patches exceed int32 column indices");
+  const double up = opt.values == FFValues::float16 ? half_scale_up(F, n * n) : 1.0;
+  scale_ = 1 / up;
+  auto store = [&](size_t k, float f) {  // the value f at position k of the stored values, rounded once
+    switch (opt_.values) {
+      case FFValues::float32: f32_[k] = f; break;
+      case FFValues::float16: u16_[k] = float_to_half(float(double(f) * up)); break;
+      case FFValues::bfloat16: u16_[k] = float_to_bfloat16(f); break;
+    }
+  };
+  auto allocate = [&](size_t count) {
+    if (opt_.values == FFValues::float32)
+      f32_.resize(count);
+    else
+      u16_.resize(count);
+  };
+
+  if (opt.storage == FFStorage::dense) {
+    allocate(n * n);
+#pragma omp parallel for schedule(static)
+    for (size_t k = 0; k < n * n; ++k) store(k, is_kept(F[k], opt.threshold) ? F[k] : 0.0f);
+    size_t nonzero = 0;
+#pragma omp parallel for reduction(+ : nonzero) schedule(static)
+    for (size_t k = 0; k < n * n; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
+    kept_ = nonzero;
+    return;
+  }
+  // CSR in two passes: the kept values per row, their prefix sums as row starts, then the values in place.
+  row_start_.assign(n + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    size_t count = 0;
+    if (row_needed(reflectivity[i]))
+      for (size_t j = 0; j < n; ++j) count += is_kept(F[i * n + j], opt.threshold);
+    row_start_[i + 1] = static_cast<int64_t>(count);
+  }
+  for (size_t i = 0; i < n; ++i) row_start_[i + 1] += row_start_[i];
+  kept_ = static_cast<size_t>(row_start_[n]);
+  allocate(kept_);
+  col_.resize(kept_);
+#pragma omp parallel for schedule(dynamic, 16)
+  for (size_t i = 0; i < n; ++i) {
+    size_t k = static_cast<size_t>(row_start_[i]);
+    if (k == static_cast<size_t>(row_start_[i + 1])) continue;
+    for (size_t j = 0; j < n; ++j)
+      if (is_kept(F[i * n + j], opt.threshold)) {
+        store(k, F[i * n + j]);
+        col_[k++] = static_cast<int32_t>(j);
+      }
+  }
+}
+
+FFMatrixView FormFactorMatrix::view() const {
+  FFMatrixView v;
+  v.n = n_;
+  v.storage = opt_.storage;
+  v.values = opt_.values;
+  v.data = opt_.values == FFValues::float32 ? static_cast<const void*>(f32_.data()) : u16_.data();
+  if (opt_.storage == FFStorage::csr) {
+    v.row_start = row_start_.data();
+    v.col = col_.data();
+  }
+  v.scale = scale_;
+  return v;
+}
+
+double FormFactorMatrix::bytes() const {
+  return double(f32_.size()) * 4 + double(u16_.size()) * 2 + double(row_start_.size()) * 8 +
+         double(col_.size()) * 4;
+}
+
+}  // namespace radiosity

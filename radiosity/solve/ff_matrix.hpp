@@ -1,0 +1,101 @@
+// The form-factor matrix in the storage a run asks for, so that a run holds and reads only what its scene needs:
+//   dense: n×n row-major, every F_ij (the form-factor file's layout, report §3.6);
+//   csr:   compressed sparse rows, only the F_ij that are kept (|F_ij| > threshold): values, int32 column indices
+//          and int64 row starts. Worth it when a threshold or occlusion leaves most F_ij zero.
+// and the values as
+//   float32: the file's values;
+//   float16: IEEE half, scaled by a power of two so that the largest |F_ij| is just below half's maximum (65504):
+//            a form factor is at most 1, and unscaled every F_ij below half's smallest normal number 6.1e-5 (most
+//            of a large scene's) would lose bits or flush to zero. Scaling by 2^k is exact and undone in the sum;
+//   bfloat16: float32's exponent with 8 bits of significand (no scaling needed: same range as float32).
+// Values are rounded to nearest-even once, when the matrix is built; the kernels widen them to the working
+// precision and accumulate there (float32 or float64).
+//
+// Rows of patches whose reflectivity is 0 in every channel are never needed: B_i = E_i whatever F says. CSR
+// leaves them empty (neither stored nor read); a dense matrix keeps them (rows stay at i·n) but the kernels skip
+// them (dense_rows_to_compute).
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "radiosity/mesh.hpp"
+
+namespace radiosity {
+
+enum class FFStorage { dense, csr };
+enum class FFValues { float32, float16, bfloat16 };
+
+const char* to_string(FFStorage s);
+const char* to_string(FFValues v);
+// "dense" | "csr"; "float32" | "float16" | "bfloat16"; anything else is a UsageError.
+FFStorage parse_ff_storage(const std::string& s);
+FFValues parse_ff_values(const std::string& s);
+size_t value_bytes(FFValues v);
+
+// What the kernels read: a view of a matrix owned elsewhere (a FormFactorMatrix, or the form-factor file's dense
+// float32 values).
+struct FFMatrixView {
+  size_t n = 0;
+  FFStorage storage = FFStorage::dense;
+  FFValues values = FFValues::float32;
+  const void* data = nullptr;          // dense: n·n values, row-major; csr: the kept values, row after row
+  const int64_t* row_start = nullptr;  // csr: n + 1 offsets into data and col
+  const int32_t* col = nullptr;        // csr: the column of each kept value
+  double scale = 1;                    // F_ij = scale · stored value (float16: 2^-k; 1 otherwise)
+};
+
+// The view of n×n dense float32 values (the form-factor file's).
+FFMatrixView dense_float32_view(const float* F, size_t n);
+
+// A patch whose row is needed: some channel of its reflectivity is not 0 (NaN counts as not 0, so that a NaN
+// reaches the solver and is reported).
+inline bool row_needed(const Rgb& reflectivity) {
+  return !(reflectivity[0] == 0 && reflectivity[1] == 0 && reflectivity[2] == 0);
+}
+
+// The rows a dense matrix's product must compute, increasing; empty when every row is needed (then the kernels
+// take their plain path over all rows).
+std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity);
+
+struct FFMatrixOptions {
+  FFStorage storage = FFStorage::dense;
+  FFValues values = FFValues::float32;
+  double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
+};
+
+// Entries kept by the options' threshold in the rows that are needed (what CSR stores), counted in one pass.
+size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold);
+
+// Bytes a matrix of these options holds (and one product reads): dense n²·v, csr kept·(v + 4) + 8·(n + 1),
+// v = value_bytes(values).
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept);
+
+// The storage `auto` picks: csr when it holds (and reads) fewer bytes than dense in the same values.
+FFStorage cheaper_storage(FFValues values, size_t n, size_t kept);
+
+// Sets every F_ij with |F_ij| <= threshold to 0, in place (a dense float32 run's threshold: no copy of F).
+// Returns how many non-zero values stay.
+size_t apply_threshold(float* F, size_t n, double threshold);
+
+class FormFactorMatrix {
+ public:
+  // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
+  // rows of patches with reflectivity 0 left empty in csr. Throws UsageError for n beyond int32 column indices.
+  FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt);
+  FFMatrixView view() const;
+  size_t kept() const { return kept_; }  // values stored (csr) or non-zero (dense)
+  double bytes() const;                   // what it holds
+
+ private:
+  size_t n_, kept_ = 0;
+  FFMatrixOptions opt_;
+  double scale_ = 1;
+  std::vector<float> f32_;
+  std::vector<uint16_t> u16_;  // float16 or bfloat16 bit patterns
+  std::vector<int64_t> row_start_;
+  std::vector<int32_t> col_;
+};
+
+}  // namespace radiosity
