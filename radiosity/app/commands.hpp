@@ -38,6 +38,11 @@ int run_formfactors(const FormFactorArgs& a);
 struct SolveArgs : SceneArgs {
   std::string ff;
   SolveConfig cfg;
+  std::string storage = "dense";        // dense | csr | auto (csr where it holds fewer bytes)
+  std::string ff_precision = "float32";  // float32 | float16 | bfloat16: how F is stored
+  double threshold = 0;                  // drop |F_ij| <= threshold at load
+  std::string reference_ff;              // the error reference's form factors (default: --ff)
+  double reference_divide = 0;           // > 0: the error reference's mesh (a finer --divide of the scene)
   std::string output_xml, png, view = "auto", size = "800x600";
   double exposure = 1;
   std::vector<long> snapshots;

@@ -1,11 +1,13 @@
 // `bin/radiosity solve`: one solve of a scene whose form factors are in a file, checked against the float64
 // reference, with the scene, pictures and a record written on request.
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <set>
 
 #include "common/cli.hpp"
@@ -14,11 +16,14 @@
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
+#include "radiosity/app/reference.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/render/camera.hpp"
 #include "radiosity/render/png_writer.hpp"
 #include "radiosity/render/render.hpp"
 #include "radiosity/scene/rrv_writer.hpp"
+#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/mesh_map.hpp"
 
 namespace radiosity::app {
 namespace {
@@ -38,48 +43,66 @@ std::pair<int, int> parse_size(const std::string& s) {
   return {w, h};
 }
 
-// max over patches and channels of |B - R|, over max |R|.
-double max_rel_diff(const std::vector<Rgb>& B, const std::vector<Rgb>& R) {
-  double num = 0, den = 0;
-  for (size_t i = 0; i < B.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      num = std::max(num, std::abs(B[i][c] - R[i][c]));
-      den = std::max(den, std::abs(R[i][c]));
-    }
-  return den > 0 ? num / den : num;
-}
-
-// The float64 reference of a run: the same method on the same system in double (AOS, openmp backend, which
-// agrees bit for bit with serial), for the same steps, or converged to 1e-12 when the run stops on a tolerance.
+// The agreement check of a run (BabelStream's check_solution): the same method on the run's own system, the form
+// factors as the run stored them (threshold, 16-bit values, storage), in float64, AOS, backend openmp (which agrees
+// bit for bit with serial), three channels: a fixed-step run against the same steps, where only rounding may
+// differ; a run that stops on a tolerance against the converged solution, from which it may differ by about tol
+// times the condition number of I - diag(ρ)F, at most (1 + ρ)/(1 - ρ) ≈ 19 for ρ ≤ 0.9. `converged` is that
+// solution when the caller has it already (null: computed here).
 struct Verification {
   double max_rel_diff = 0, bound = 0, seconds = 0;
   long reference_iterations = 0;
   bool agreed = false;
 };
-Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult& res) {
+Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult& res, const ErrorReference* converged) {
   hpcgi::Timer t;
-  SolveConfig ref = cfg;
-  ref.backend = "openmp";
-  ref.layout = "aos";
-  ref.precision = "double";
-  ref.ff_threshold = 0;
-  ref.fused = ref.overlap = false;
-  if (cfg.backend == "original") ref.method = "jacobi";
-  // A fixed-step run is compared with the same steps in double: only rounding may differ. A run that stops on a
-  // tolerance is compared with the converged solution: it may differ by about tol times the condition number of
-  // I - diag(ρ)F, at most (1 + ρ)/(1 - ρ) ≈ 19 for ρ ≤ 0.9.
-  if (cfg.steps == 0) {
-    ref.tol = 1e-12;
-    ref.max_iter = std::max(cfg.max_iter, 10000L);
-  }
-  const SolveResult r = solve(sys, ref);
   Verification v;
-  v.max_rel_diff = max_rel_diff(res.B, r.B);
+  std::vector<Rgb> R;
+  if (cfg.steps > 0) {
+    SolveConfig ref = cfg;
+    ref.backend = "openmp";
+    ref.layout = "aos";
+    ref.precision = "double";
+    ref.channels = "3";
+    ref.ff_threshold = 0;
+    ref.fused = ref.overlap = false;
+    if (cfg.backend == "original") ref.method = "jacobi";
+    SolveResult r = solve(sys, ref);
+    v.reference_iterations = r.iterations;
+    R = std::move(r.B);
+  } else {
+    const ErrorReference own = converged ? ErrorReference{} : converged_reference(sys, "the run's form factors");
+    if (!converged) converged = &own;
+    v.reference_iterations = converged->iterations;
+    R = converged->B;
+  }
+  v.max_rel_diff = max_rel_diff(res.B, R);
   v.bound = cfg.steps > 0 ? (cfg.precision == "double" ? 1e-10 : 1e-5) : 1e-5 + 20 * cfg.tol;
   v.agreed = v.max_rel_diff <= v.bound;
-  v.reference_iterations = r.iterations;
   v.seconds = t.seconds();
   return v;
+}
+
+const SolveBackend& find_backend(const std::string& name) {
+  for (const auto& b : solve_backends())
+    if (b.name == name) return b;
+  throw hpcgi::UsageError("unknown solver backend '" + name + "' (known: " + backend_list() + ")");
+}
+
+std::string gib(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f GiB", bytes / (1 << 30));
+  return buf;
+}
+
+// Vectors of a solve and of its float64 references beside it: at most BiCG-STAB's 7 slots plus ρ and E, in
+// double, three channels, twice, and the host's copies of B (a few per run).
+double vector_bytes(size_t n) { return (2 * (7 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
+
+double peak_rss_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1024.0 * double(u.ru_maxrss);  // kilobytes on Linux
 }
 
 }  // namespace
@@ -103,8 +126,28 @@ void add_solve(CLI::App& app, SolveArgs& a) {
                       "layout a backend runs (cublas: soa)")
           ->check(CLI::IsMember({"aos", "soa"}))->capture_default_str();
   cmd->add_option("--backend", a.cfg.backend, backend_list())->capture_default_str();
-  cmd->add_option("--precision", a.cfg.precision, "working precision of B: float | double (F is float32)")
+  cmd->add_option("--precision", a.cfg.precision, "working precision of B and of the sums: float | double")
       ->check(CLI::IsMember({"float", "double"}))->capture_default_str();
+  cmd->add_option("--storage", a.storage,
+                  "form factors held as dense (n x n) | csr (only the kept F_ij: values and int32 columns) | auto "
+                  "(csr where it holds fewer bytes; dense on the backends that read dense only)")
+      ->check(CLI::IsMember({"dense", "csr", "auto"}))->capture_default_str();
+  cmd->add_option("--ff-precision", a.ff_precision,
+                  "form factors stored as float32 | float16 (scaled by a power of two) | bfloat16, widened to the "
+                  "working precision in the sums (16 bits: serial and openmp)")
+      ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
+  cmd->add_option("--threshold", a.threshold, "drop the form factors with |F_ij| <= T when loading them")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  cmd->add_option("--channels", a.cfg.channels,
+                  "auto (a grey scene, r = g = b everywhere, is solved as one channel on serial and openmp) | 3")
+      ->check(CLI::IsMember({"auto", "3"}))->capture_default_str();
+  cmd->add_option("--reference-ff", a.reference_ff,
+                  "form factors of the error reference (result.error_vs_reference), e.g. a finer hemicube; "
+                  "default: --ff before threshold and rounding");
+  cmd->add_option("--reference-divide", a.reference_divide,
+                  "the error reference's mesh: the scene at this smaller maximum patch area (its form factors in "
+                  "--reference-ff), carried onto this mesh by area-weighted means")
+      ->check(hpcgi::positive_finite());
   CLI::Option* fused =
       cmd->add_flag("--fused", a.cfg.fused, "cublas: one cublasSgemm over the three channels, not an Sgemv per channel");
   CLI::Option* distribution =
@@ -123,8 +166,10 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   cmd->add_option("--snapshots", a.snapshots, "render the scene after these iterations (report Figure 4.2: 1,2,4,8,32)")
       ->delimiter(',')->check(CLI::PositiveNumber);
   cmd->add_option("--snapshot-prefix", a.snapshot_prefix, "snapshot files are PREFIX_iterK.png (default: snapshot)");
-  cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference");
+  cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference and the error reference");
   cmd->callback([&a, layout, fused, distribution, overlap] {
+    if (a.reference_divide > 0 && a.reference_ff.empty())
+      throw CLI::ValidationError("--reference-divide needs --reference-ff, the form factors of that mesh");
     // An option of one backend given with another is refused, not ignored: the record would claim it.
     for (const auto& [opt, backend] : {std::pair{fused, "cublas"}, {distribution, "hybrid"}, {overlap, "hybrid"}})
       if (opt->count() > 0 && a.cfg.backend != backend)
@@ -140,14 +185,93 @@ int run_solve(const SolveArgs& a) {
   SolveConfig cfg = a.cfg;
   cfg.threads = a.threads;
   const auto [width, height] = parse_size(a.size);
+  const SolveBackend& backend = find_backend(cfg.backend);
+  const FFValues values = parse_ff_values(a.ff_precision);
+  if (!backend.any_storage && (a.storage == "csr" || values != FFValues::float32))
+    throw hpcgi::UsageError("backend '" + backend.name + "' reads dense float32 form factors only: --storage csr and "
+                            "--ff-precision float16|bfloat16 run on serial and openmp");
   double load_s = 0;
   const Mesh m = load_scene(a, &load_s);
-  const double n = static_cast<double>(m.size());
-  hpcgi::require_host_memory("the form factors of " + std::to_string(m.size()) + " patches", 4.0 * n * n);
+  const size_t n = m.size();
+  const double n2 = double(n) * double(n);
+  const std::string patches = std::to_string(n) + " patches";
+
+  // The error reference from other form factors (a finer hemicube or mesh), solved and freed before the run's
+  // own form factors are loaded, so that the two never take memory at once.
+  ErrorReference ref;
+  bool have_ref = false;
+  if (a.verify && !a.reference_ff.empty()) {
+    Mesh fine;
+    if (a.reference_divide > 0) {
+      LoadOptions lo = a.load;
+      lo.divide = a.reference_divide;
+      fine = load_rrv_scene(a.scene, lo);
+    }
+    const Mesh& rm = a.reference_divide > 0 ? fine : m;
+    const double rn = double(rm.size());
+    hpcgi::require_host_memory("the error reference on " + std::to_string(rm.size()) + " patches (its dense float32 "
+                               "form factors " + gib(4 * rn * rn) + ", vectors " + gib(vector_bytes(rm.size())) + ")",
+                               4 * rn * rn + vector_bytes(rm.size()));
+    const FormFactors rff = load_form_factors(a.reference_ff, rm);
+    ref = converged_reference(make_system(rm, rff.values.data()), "");
+    char what[96];
+    std::snprintf(what, sizeof what, " (hemicube R=%d, %zu patches, divide %g)", rff.params.resolution, rm.size(),
+                  rm.size() == n ? a.load.divide : a.reference_divide);
+    ref.of = a.reference_ff + what;
+    if (a.reference_divide > 0 && mesh_hash(fine) != mesh_hash(m)) ref.B = area_weighted_onto(m, fine, ref.B);
+    have_ref = true;
+  }
+
+  // Memory: the file's dense float32 values (always read whole), a 16-bit dense copy, the vectors; a CSR copy is
+  // checked once its size is known (the kept values are counted after loading).
+  const bool dense16 = a.storage == "dense" && values != FFValues::float32;
+  const double file_bytes = 4 * n2, copy_bytes = dense16 ? 2 * n2 : 0;
+  hpcgi::require_host_memory("a solve of " + patches + " (the form-factor file's dense float32 values " +
+                                 gib(file_bytes) + (dense16 ? ", their 16-bit copy " + gib(copy_bytes) : "") +
+                                 ", vectors " + gib(vector_bytes(n)) + ")",
+                             file_bytes + copy_bytes + vector_bytes(n));
   hpcgi::Timer t;
-  const FormFactors ff = load_form_factors(a.ff, m);
+  FormFactors ff = load_form_factors(a.ff, m);
   const double ff_load_s = t.seconds();
-  const System sys = make_system(m, ff.values.data());
+  System sys = make_system(m, ff.values.data());
+
+  // The run's form factors: threshold, storage and precision. The default error reference is solved on the
+  // file's values before they are thresholded or rounded (or after the run, when they are not).
+  t.reset();
+  const size_t kept = count_kept(ff.values.data(), n, sys.reflectivity, a.threshold);
+  const bool dropped = a.threshold > 0 && kept != count_kept(ff.values.data(), n, sys.reflectivity, 0);
+  FFStorage storage = a.storage == "auto" ? (backend.any_storage ? cheaper_storage(values, n, kept) : FFStorage::dense)
+                                          : parse_ff_storage(a.storage);
+  const bool as_file = storage == FFStorage::dense && values == FFValues::float32;
+  const bool same_matrix = !have_ref && values == FFValues::float32 && !dropped;
+  if (a.verify && !have_ref && !same_matrix) {
+    ref = converged_reference(sys, "");
+    have_ref = true;
+  }
+  std::unique_ptr<FormFactorMatrix> matrix;
+  double matrix_storage_bytes = file_bytes;
+  if (as_file) {
+    if (dropped) apply_threshold(ff.values.data(), n, a.threshold);
+  } else {
+    const double bytes = ff_storage_bytes(storage, values, n, kept);
+    hpcgi::require_host_memory("the " + std::string(to_string(storage)) + " " + to_string(values) +
+                                   " form factors of " + patches + " (" + std::to_string(kept) + " kept)",
+                               bytes);
+    FFMatrixOptions opt;
+    opt.storage = storage;
+    opt.values = values;
+    opt.threshold = a.threshold;
+    matrix = std::make_unique<FormFactorMatrix>(ff.values.data(), n, sys.reflectivity, opt);
+    matrix_storage_bytes = matrix->bytes();
+    std::vector<float>().swap(ff.values);  // the dense values are no longer needed: give their memory back
+    sys.F = nullptr;
+    sys.stored = matrix->view();
+  }
+  if (cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value
+    hpcgi::require_host_memory("backend original's cache lines for " + patches, 16.0 * double(kept));
+  const double ff_build_s = t.seconds();
+  size_t skipped_rows = 0;
+  for (const Rgb& rho : sys.reflectivity) skipped_rows += !row_needed(rho);
   const Camera cam = parse_view(a.view, m);
   RenderOptions ropt;
   ropt.exposure = a.exposure;
@@ -167,8 +291,14 @@ int run_solve(const SolveArgs& a) {
   const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
                       res.status == SolveStatus::divergent;
   Verification v;
-  if (a.verify && !failed) v = verify(sys, cfg, res);
-
+  double error = 0;
+  if (a.verify && !failed) {
+    if (!have_ref) ref = converged_reference(sys, "");
+    if (ref.of.empty())
+      ref.of = a.ff + (same_matrix ? "" : " before threshold and rounding") + " (" + patches + ")";
+    v = verify(sys, cfg, res, same_matrix ? &ref : nullptr);
+    error = max_rel_diff(res.B, ref.B);
+  }
   const double passes_bytes = res.matrix_bytes * static_cast<double>(res.matrix_passes);
   const bool gpu = !res.backend_info.empty();  // the GPU backends describe their GPU
   const bool hybrid = cfg.backend == "hybrid";
@@ -189,6 +319,13 @@ int run_solve(const SolveArgs& a) {
                    {"weights", to_string(ff.params.weights)},
                    {"ff_threshold", ff.params.threshold},
                    {"ff_file", a.ff},
+                   {"storage", to_string(storage)},
+                   {"storage_requested", a.storage},
+                   {"ff_precision", to_string(values)},
+                   {"threshold", a.threshold},
+                   {"channels", cfg.channels},
+                   {"reference_ff", a.reference_ff.empty() ? nlohmann::json() : nlohmann::json(a.reference_ff)},
+                   {"reference_divide", a.reference_divide > 0 ? nlohmann::json(a.reference_divide) : nlohmann::json()},
                    {"fused", cfg.backend == "cublas" ? nlohmann::json(cfg.fused) : nlohmann::json()},
                    {"distribution", hybrid ? nlohmann::json(cfg.distribution) : nlohmann::json()},
                    {"overlap", hybrid ? nlohmann::json(cfg.overlap) : nlohmann::json()}};
@@ -197,8 +334,37 @@ int run_solve(const SolveArgs& a) {
                    {"iterations", res.iterations},
                    {"rel_residual", res.rel_residual},
                    {"max_rel_residual", *std::max_element(res.rel_residual.begin(), res.rel_residual.end())},
-                   {"mesh_hash", mesh_hash(m)}};
+                   {"mesh_hash", mesh_hash(m)},
+                   {"channels", res.channels},
+                   {"kept", kept},
+                   {"density", double(kept) / n2},
+                   {"skipped_rows", skipped_rows},
+                   {"matrix_storage_bytes", matrix_storage_bytes}};
   if (!res.detail.empty()) rec["result"]["detail"] = res.detail;
+  if (!failed) {  // the range of B, for scenes whose answer is known in closed form (a closed box: E / (1 - ρ))
+    Rgb lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (const Rgb& b : res.B)
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], b[c]);
+        hi[c] = std::max(hi[c], b[c]);
+      }
+    rec["result"]["radiosity_min"] = lo;
+    rec["result"]["radiosity_max"] = hi;
+  }
+  if (a.verify && !failed) {
+    rec["result"]["error_vs_reference"] = error;
+    rec["result"]["reference"] = {{"of", ref.of},
+                                  {"precision", "double"},
+                                  {"tol", kReferenceTol},
+                                  {"method", ref.method},
+                                  {"iterations", ref.iterations},
+                                  {"max_rel_residual", ref.max_rel_residual},
+                                  {"converged", ref.converged},
+                                  {"patches", ref.patches},
+                                  {"seconds", ref.seconds}};
+  } else {
+    rec["result"]["error_vs_reference"] = nullptr;
+  }
   if (a.verify && !failed)
     rec["verify"] = {{"reference", "float64, openmp backend (bit-identical to serial), aos"},
                      {"reference_iterations", v.reference_iterations},
@@ -208,8 +374,10 @@ int run_solve(const SolveArgs& a) {
   else
     rec["verify"] = {{"agreed", nullptr}};
   const double per_it = res.iterations > 0 ? res.solve_s / static_cast<double>(res.iterations) : 0.0;
-  rec["times_s"] = {{"load", load_s},   {"ff_load", ff_load_s}, {"setup", res.setup_s},   {"solve", res.solve_s},
-                    {"per_iteration", per_it}, {"check", res.check_s}, {"verify", v.seconds}, {"total", total.seconds()}};
+  rec["times_s"] = {{"load", load_s},       {"ff_load", ff_load_s},     {"ff_build", ff_build_s},
+                    {"setup", res.setup_s},  {"solve", res.solve_s},     {"per_iteration", per_it},
+                    {"check", res.check_s},  {"verify", v.seconds},      {"reference", ref.seconds},
+                    {"total", total.seconds()}};
   if (gpu) {
     rec["times_s"]["upload"] = res.upload_s;
     rec["times_s"]["transfer"] = res.transfer_s;
@@ -219,6 +387,7 @@ int run_solve(const SolveArgs& a) {
   rec["perf"] = {{"matrix_bytes", res.matrix_bytes},
                  {"matrix_passes", res.matrix_passes},
                  {"bandwidth_GBps", res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0},
+                 {"peak_rss_bytes", peak_rss_bytes()},
                  {"timer", gpu ? "host wall clock, device synchronised; upload, transfer and device_compute by CUDA "
                                  "events, host_compute by the host's clock"
                                : "host wall clock"}};
@@ -228,14 +397,21 @@ int run_solve(const SolveArgs& a) {
   rec["backend_info"] = info;
 
   if (!a.quiet) {
-    std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads\n", a.scene.c_str(), m.size(), cfg.method.c_str(),
-                cfg.layout.c_str(), cfg.backend.c_str(), cfg.precision.c_str(), res.threads);
+    std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), m.size(),
+                cfg.method.c_str(), cfg.layout.c_str(), cfg.backend.c_str(), cfg.precision.c_str(), res.threads,
+                res.channels, res.channels == 1 ? " (grey scene)" : "s");
+    std::printf("  form factors: %s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
+                to_string(storage), to_string(values), a.threshold, kept, n2, 100.0 * double(kept) / n2,
+                matrix_storage_bytes / 1e6, skipped_rows);
     std::printf("  status %s after %ld iterations: relative residual r %.3e g %.3e b %.3e\n", to_string(res.status),
                 res.iterations, res.rel_residual[0], res.rel_residual[1], res.rel_residual[2]);
     if (!res.detail.empty()) std::printf("  %s\n", res.detail.c_str());
-    if (a.verify && !failed)
+    if (a.verify && !failed) {
       std::printf("  float64 reference: max relative difference %.3e (bound %.1e): %s\n", v.max_rel_diff, v.bound,
                   v.agreed ? "agreed" : "DISAGREED");
+      std::printf("  error against the float64 solution to %.0e of %s: %.3e%s\n", kReferenceTol, ref.of.c_str(),
+                  error, ref.converged ? "" : " (that solution did not converge: no error bound)");
+    }
     std::printf("  time: load %.3f s, form factors %.3f s, setup %.4f s, solve %.4f s (%.4g ms/iteration, %.2f GB/s)\n",
                 load_s, ff_load_s, res.setup_s, res.solve_s, per_it * 1e3,
                 res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0);
