@@ -11,8 +11,8 @@ EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table
 
 
 def provenance(preset):
-    frames = [load(e, preset) for e in EXPERIMENTS]
-    df = pd.concat([f for f in frames if not f.empty], ignore_index=True) if any(not f.empty for f in frames) else None
+    frames = [f.dropna(axis=1, how="all") for f in (load(e, preset) for e in EXPERIMENTS) if not f.empty]
+    df = pd.concat(frames, ignore_index=True) if frames else None
     if df is None:
         return ["No records yet: run `make reproduce PRESET=%s`." % preset], 0
     lines = []
