@@ -87,7 +87,7 @@ def table42(preset):
     for s in sorted(set(t["scene_id"]) | set(paper["scene"])):
         row = {"scene": s}
         mine = t[t["scene_id"] == s]
-        row["patches"] = mine["params.patches"].iloc[0] if len(mine) else paper.loc[paper.scene == s, "patches"].iloc[0]
+        row["patches"] = int(mine["params.patches"].iloc[0] if len(mine) else paper.loc[paper.scene == s, "patches"].iloc[0])
         p = paper[paper["scene"] == s]
         for m in ("jacobi", "bicgstab"):
             o = mine[mine["params.method"] == m]
