@@ -126,7 +126,7 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
   }
   if (!b->built) throw hpcgi::UsageError("solver backend '" + b->name + "' is not available: " + b->why_not);
-  if (sys.stored.data && !b->any_storage) {
+  if (sys.stored.n && !b->any_storage) {
     std::string which;
     for (const SolveBackend& x : solve_backends())
       if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;

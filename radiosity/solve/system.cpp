@@ -34,7 +34,7 @@ System make_system(const Mesh& mesh, const float* F) {
 }
 
 FFMatrixView system_matrix(const System& sys) {
-  return sys.stored.data ? sys.stored : dense_float32_view(sys.F, sys.n);
+  return sys.stored.n ? sys.stored : dense_float32_view(sys.F, sys.n);
 }
 
 bool is_grey(const System& sys) {
@@ -46,8 +46,8 @@ bool is_grey(const System& sys) {
 
 void check_system(const System& sys) {
   if (sys.n == 0) throw hpcgi::UsageError("radiosity system: no patches");
-  if (!sys.F && !sys.stored.data) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
-  if (sys.stored.data && sys.stored.n != sys.n)
+  if (!sys.F && !sys.stored.n) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
+  if (sys.stored.n && sys.stored.n != sys.n)
     throw hpcgi::UsageError("radiosity system: a form-factor matrix of " + std::to_string(sys.stored.n) +
                             " patches for " + std::to_string(sys.n));
   auto check = [&](const std::vector<Rgb>& v, const char* what) {

@@ -12,8 +12,9 @@ namespace radiosity {
 struct System {
   size_t n = 0;
   const float* F = nullptr;        // n×n row-major, F[i*n + j], F_ii = 0; not owned (it comes from the form-factor file)
-  // F in another storage (csr, 16-bit values: ff_matrix.hpp), not owned. When its data is set it is the system's
-  // matrix, F may be null, and only the backends that read any storage (serial, openmp) run it.
+  // F in another storage (csr, 16-bit values: ff_matrix.hpp), not owned. When set (stored.n = n; its data may be
+  // null for a CSR matrix that keeps nothing) it is the system's matrix, F may be null, and only the backends
+  // that read any storage (serial, openmp) run it.
   FFMatrixView stored;
   std::vector<Rgb> emission;       // E, n entries
   std::vector<Rgb> reflectivity;   // ρ, n entries

@@ -225,3 +225,13 @@ TEST(Storage, BackendsThatReadDenseFloat32OnlyRefuseOtherStorage) {
     }
   }
 }
+
+// A threshold above every form factor keeps nothing (CSR holds no values at all): no light is exchanged, B = E.
+TEST(Storage, CsrThatKeepsNothingGivesTheEmission) {
+  const Problem p = random_problem(40, 65);
+  const FormFactorMatrix none(p.F.data(), p.sys.n, p.sys.reflectivity, options(FFStorage::csr, FFValues::float32, 1.0));
+  EXPECT_EQ(none.kept(), 0u);
+  const SolveResult r = solve(stored_as(p, none), config("openmp", "aos", "jacobi", "double", 0));
+  EXPECT_EQ(r.status, SolveStatus::converged);
+  EXPECT_EQ(r.B, p.sys.emission);
+}
