@@ -18,8 +18,11 @@ comma := ,
 SAN_SUFFIX := $(if $(SANITIZE),-$(subst $(comma),-,$(SANITIZE)))
 BUILD ?= build$(SAN_SUFFIX)
 BIN   ?= bin$(SAN_SUFFIX)
-# UBSan stops at its first report instead of printing and going on, so a finding fails the test.
-SAN_FLAGS := $(if $(SANITIZE),-g -fno-omit-frame-pointer -fsanitize=$(SANITIZE) -fno-sanitize-recover=all)
+# UBSan stops at its first report instead of printing and going on, so a finding fails the test. GCC's
+# "undefined" leaves out float-cast-overflow (a NaN or huge double converted to an integer, as a pixel or an
+# index would be), so it is added.
+SAN_FLAGS := $(if $(SANITIZE),-g -fno-omit-frame-pointer -fsanitize=$(SANITIZE) -fno-sanitize-recover=all \
+               $(if $(filter undefined,$(subst $(comma), ,$(SANITIZE))),-fsanitize=float-cast-overflow))
 
 HAVE_MPI  := $(if $(shell command -v $(MPICXX) 2>/dev/null),1,)
 NVCC_PATH := $(if $(SANITIZE),,$(shell command -v $(NVCC) 2>/dev/null))
