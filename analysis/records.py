@@ -40,7 +40,7 @@ def load(experiment, preset=None):
             rows.append(rec)
     df = pd.json_normalize(rows) if rows else pd.DataFrame()
     if "params.scene" in df.columns:
-        df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name))
+        df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name) if isinstance(s, str) else None)
     return df
 
 

@@ -4,7 +4,7 @@ import os
 
 import pandas as pd
 
-from analysis import radiosity_tables, table41
+from analysis import accuracy, radiosity_tables, table41
 from analysis.records import PLOTS, REPORT, ROOT, TABLES, load
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42")
@@ -152,7 +152,8 @@ def write(preset):
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
-            "### Figure 4.2", "", image("figure42", preset, "Figure 4.2")]
+            "### Figure 4.2", "", image("figure42", preset, "Figure 4.2"), "",
+            *accuracy.report_section(preset, include, image)]
     path = REPORT / f"REPORT-{preset}.md"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(out) + "\n")
