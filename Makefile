@@ -164,6 +164,7 @@ endif
 
 # Only what is missing or failed: locally the runner skips recorded cases anyway; on Slurm the missing indices.
 resume:
+	@$(MAKE) --no-print-directory all
 ifeq ($(RUNNER),slurm)
 	PRESET=$(PRESET) RESUME=1 slurm/submit $(EXPERIMENTS)
 else
