@@ -63,7 +63,7 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 PRESET ?= quick
 RUNNER ?= local
-# The accuracy sweeps and extremes (issue 6) add about three minutes to the quick preset on 2 cores.
+# The accuracy sweeps and extremes (issue 6) add about four minutes to the quick preset on 2 cores.
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
                accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes
 .PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench FORCE
