@@ -269,11 +269,14 @@ int run_solve(const SolveArgs& a) {
     sys.F = nullptr;
     sys.stored = matrix->view();
   }
-  if (cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value
-    hpcgi::require_host_memory("backend original's cache lines for " + patches, 16.0 * double(kept));
+  size_t rows_without_reflection = 0;
+  for (const Rgb& rho : sys.reflectivity) rows_without_reflection += !row_needed(rho);
+  // Only the backends that read any storage skip those rows; the others compute them.
+  const size_t skipped_rows = backend.any_storage ? rows_without_reflection : 0;
+  if (cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
+    hpcgi::require_host_memory("backend original's cache lines for " + patches,
+                               16.0 * (double(kept) + double(rows_without_reflection) * double(n)));
   const double ff_build_s = t.seconds() - ref_in_build_s;
-  size_t skipped_rows = 0;
-  for (const Rgb& rho : sys.reflectivity) skipped_rows += !row_needed(rho);
   const Camera cam = parse_view(a.view, m);
   RenderOptions ropt;
   ropt.exposure = a.exposure;
