@@ -73,15 +73,19 @@ def rows(preset):
     jac = _on(load("bench-jacobi", preset), host)
     if len(jac):
         mine, peer = jac[jac["app"] == "radiosity"], jac[jac["app"] == "peer"]
-        nbytes = float(jac["perf.matrix_bytes"].iloc[0])
+        n = int(jac["params.patches"].iloc[0])
+        nbytes = float(mine["perf.matrix_bytes"].iloc[0]) if len(mine) else 4.0 * n * n
         entries = [(f"openmp float {l.upper()}, one pass over F", mine[mine["params.layout"] == l], nbytes, True)
                    for l in ("aos", "soa")]
-        entries += [("NumPy F @ B (sgemm, 3 columns)", peer[peer["params.way"] == "gemm"], nbytes, False),
-                    ("NumPy 3 x F @ b (sgemv)", peer[peer["params.way"] == "gemv"], 3 * nbytes, False)]
-        n = int(jac["params.patches"].iloc[0])
-        fastest, peers = problem(f"Jacobi step, room3.xml, {n} patches (4N² = {nbytes / 1e6:.0f} MB)", entries)
+        entries += [("NumPy F @ B (sgemm, 3 columns)", peer[peer["params.way"] == "gemm"], 4.0 * n * n, False),
+                    ("NumPy 3 x F @ b (sgemv)", peer[peer["params.way"] == "gemv"], 3 * 4.0 * n * n, False)]
+        # The bound is 4N² bytes (all of F); the solver skips the rows of patches with reflectivity 0, so it
+        # reads less, and its GB/s counts what it reads.
+        full = 4.0 * n * n
+        fastest, peers = problem(f"Jacobi step, room3.xml, {n} patches (4N² = {full / 1e6:.0f} MB, of which "
+                                 f"{nbytes / 1e6:.0f} MB read)", entries)
         if fastest:
-            bound = nbytes / (triad * 1e9)
+            bound = full / (triad * 1e9)
             targets.append(f"Jacobi room3 ({fastest[0]}): {fastest[4] / bound:.2f}x the time of 4N² bytes at the "
                            f"triad bandwidth (target <= {JACOBI_SLACK}x): "
                            f"{'met' if fastest[4] <= JACOBI_SLACK * bound else 'NOT met'}")

