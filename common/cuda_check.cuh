@@ -68,4 +68,29 @@ class DeviceArray {
   size_t n_;
 };
 
+// A cuBLAS handle that lives as long as its owner: its calls go to `stream` (default: the legacy default stream),
+// scalars (alpha, a dot's result) are read from and written to `scalars` (host or device memory), and the math mode
+// is the default: full precision, no TF32.
+class BlasHandle {
+ public:
+  explicit BlasHandle(cudaStream_t stream = nullptr, cublasPointerMode_t scalars = CUBLAS_POINTER_MODE_HOST) {
+    CUBLAS_CHECK(cublasCreate(&h_));
+    try {
+      CUBLAS_CHECK(cublasSetStream(h_, stream));
+      CUBLAS_CHECK(cublasSetPointerMode(h_, scalars));
+      CUBLAS_CHECK(cublasSetMathMode(h_, CUBLAS_DEFAULT_MATH));
+    } catch (...) {
+      cublasDestroy(h_);
+      throw;
+    }
+  }
+  ~BlasHandle() { cublasDestroy(h_); }
+  BlasHandle(const BlasHandle&) = delete;
+  BlasHandle& operator=(const BlasHandle&) = delete;
+  cublasHandle_t get() const { return h_; }
+
+ private:
+  cublasHandle_t h_{};
+};
+
 }  // namespace hpcgi

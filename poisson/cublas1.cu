@@ -49,7 +49,7 @@ class Cublas1 final : public GpuBase<T> {
                                                                                       static_cast<T>(b), y);
     CUDA_CHECK_LAUNCH();
   }
-  BlasHandle blas_;
+  hpcgi::BlasHandle blas_;
 };
 
 }  // namespace

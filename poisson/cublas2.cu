@@ -39,7 +39,7 @@ class Cublas2 final : public GpuBase<T> {
     CUBLAS_CHECK(blas_dot(blas_.get(), B::blas_len(), a, b, &out));
     return out;
   }
-  BlasHandle blas_;
+  hpcgi::BlasHandle blas_;
 };
 
 }  // namespace

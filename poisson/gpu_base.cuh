@@ -150,17 +150,4 @@ inline cublasStatus_t blas_scal(cublasHandle_t h, int n, double a, float* x) {
   return cublasSscal(h, n, &af, x, 1);
 }
 
-// A cuBLAS handle that lives as long as the backend.
-class BlasHandle {
- public:
-  BlasHandle() { CUBLAS_CHECK(cublasCreate(&h_)); }
-  ~BlasHandle() { cublasDestroy(h_); }
-  BlasHandle(const BlasHandle&) = delete;
-  BlasHandle& operator=(const BlasHandle&) = delete;
-  cublasHandle_t get() const { return h_; }
-
- private:
-  cublasHandle_t h_{};
-};
-
 }  // namespace poisson

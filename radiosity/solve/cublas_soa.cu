@@ -53,30 +53,6 @@ cublasStatus_t blas_dot(cublasHandle_t h, int n, const double* x, const double* 
   return cublasDdot(h, n, x, 1, y, 1, out);
 }
 
-// One handle per backend, on the backend's stream, scalars on the device (a dot's result stays there until the
-// three of a slot are fetched in one copy), and the default math mode: full float precision, no TF32.
-class BlasHandle {
- public:
-  explicit BlasHandle(cudaStream_t s) {
-    CUBLAS_CHECK(cublasCreate(&h_));
-    try {
-      CUBLAS_CHECK(cublasSetStream(h_, s));
-      CUBLAS_CHECK(cublasSetPointerMode(h_, CUBLAS_POINTER_MODE_DEVICE));
-      CUBLAS_CHECK(cublasSetMathMode(h_, CUBLAS_DEFAULT_MATH));
-    } catch (...) {
-      cublasDestroy(h_);
-      throw;
-    }
-  }
-  ~BlasHandle() { cublasDestroy(h_); }
-  BlasHandle(const BlasHandle&) = delete;
-  BlasHandle& operator=(const BlasHandle&) = delete;
-  cublasHandle_t get() const { return h_; }
-
- private:
-  cublasHandle_t h_{};
-};
-
 // Each kernel below: channel blockIdx.y (it starts at blockIdx.y · stride), its n patches by a grid-stride loop.
 
 // y = a·x + c·ρ ⊙ p + d·e, where p = F x came from cuBLAS.
@@ -127,8 +103,8 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
   }
 
   CublasSoa(const System& sys, bool fused, int vectors)
-      : n_(sys.n), stride_(stride_for(sys.n)), fused_(fused), blas_(this->stream_.get()), F_(sys.n * sys.n),
-        rho_(3 * stride_), e_(3 * stride_), p_(3 * stride_), consts_(2), res_(3), host_res_(3) {
+      : n_(sys.n), stride_(stride_for(sys.n)), fused_(fused), blas_(this->stream_.get(), CUBLAS_POINTER_MODE_DEVICE),
+        F_(sys.n * sys.n), rho_(3 * stride_), e_(3 * stride_), p_(3 * stride_), consts_(2), res_(3), host_res_(3) {
     upload_matrix(sys.F);
     const T consts[2] = {1, 0};
     CUDA_CHECK(cudaMemcpyAsync(consts_.get(), consts, sizeof consts, cudaMemcpyHostToDevice, s()));
@@ -250,7 +226,7 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
 
   size_t n_, stride_;
   bool fused_;
-  BlasHandle blas_;
+  hpcgi::BlasHandle blas_;  // scalars on the device: a dot stays there until a slot's three are fetched
   hpcgi::DeviceArray<T> F_, rho_, e_, p_, consts_, res_;
   gpu::PinnedArray<T> host_res_;
   std::vector<std::unique_ptr<hpcgi::DeviceArray<T>>> vec_;
