@@ -21,17 +21,14 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
 
 #ifdef HAVE_CUDA
 // The GPU backends (cuda_aos.cu, cublas_soa.cu, hybrid.cu). Each refuses with hpcgi::UsageError, before it
-// allocates, a machine without a GPU and a system that will not fit in the GPU's free memory. Their runs are the
-// registry's; their kernels are for the tests.
+// allocates, a machine without a GPU and a system that will not fit in the GPU's free memory. solve.cpp's driver runs
+// them as it runs the CPU backends (their clock reaches the record through Kernels::settled and account).
 template <class T>
 std::unique_ptr<Kernels<T>> make_cuda(const System& sys, const SolveConfig& cfg, int vectors);
 template <class T>
 std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cfg, int vectors);
 template <class T>
 std::unique_ptr<Kernels<T>> make_hybrid(const System& sys, const SolveConfig& cfg, int vectors);
-SolveResult run_cuda(const System& sys, const SolveConfig& cfg, const IterationCallback& callback);
-SolveResult run_cublas(const System& sys, const SolveConfig& cfg, const IterationCallback& callback);
-SolveResult run_hybrid(const System& sys, const SolveConfig& cfg, const IterationCallback& callback);
 #endif
 
 }  // namespace radiosity

@@ -16,7 +16,7 @@
 #include <type_traits>
 
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_run.cuh"
+#include "radiosity/solve/device_kernels.cuh"
 
 namespace radiosity {
 namespace {
@@ -249,9 +249,5 @@ std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cf
 }
 template std::unique_ptr<Kernels<float>> make_cublas(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_cublas(const System&, const SolveConfig&, int);
-
-SolveResult run_cublas(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
-  return gpu::run_device_kernels<build<float>, build<double>>(sys, cfg, callback);
-}
 
 }  // namespace radiosity

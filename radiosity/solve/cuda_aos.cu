@@ -3,7 +3,7 @@
 // reduction come back to the host.
 #include "radiosity/solve/aos_kernels.cuh"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_run.cuh"
+#include "radiosity/solve/device_kernels.cuh"
 
 namespace radiosity {
 namespace {
@@ -39,6 +39,7 @@ class CudaAos final : public gpu::DeviceKernels<T> {
 
 template <class T>
 std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfig& cfg, int vectors) {
+  if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (its product is one pass over F already)");
   const std::string who = gpu::who("cuda", sys, cfg);
   hpcgi::require_gpu(who);
   hpcgi::require_device_memory(who, gpu::AosDevice<T>::bytes_needed(sys.n, sys.n, vectors));
@@ -53,10 +54,5 @@ std::unique_ptr<Kernels<T>> make_cuda(const System& sys, const SolveConfig& cfg,
 }
 template std::unique_ptr<Kernels<float>> make_cuda(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_cuda(const System&, const SolveConfig&, int);
-
-SolveResult run_cuda(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
-  if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (its product is one pass over F already)");
-  return gpu::run_device_kernels<build<float>, build<double>>(sys, cfg, callback);
-}
 
 }  // namespace radiosity

@@ -17,9 +17,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "common/timer.hpp"
 #include "radiosity/solve/aos_kernels.cuh"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_run.cuh"
+#include "radiosity/solve/device_kernels.cuh"
 #include "radiosity/solve/hybrid_host.hpp"
 
 namespace radiosity {
@@ -173,6 +174,7 @@ void check_distribution(double d) {
 
 template <class T>
 std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfig& cfg, int vectors) {
+  if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (hybrid runs backend cuda's kernels)");
   check_distribution(cfg.distribution);
   const std::string who = gpu::who("hybrid", sys, cfg);
   hpcgi::require_gpu(who);
@@ -190,10 +192,5 @@ std::unique_ptr<Kernels<T>> make_hybrid(const System& sys, const SolveConfig& cf
 }
 template std::unique_ptr<Kernels<float>> make_hybrid(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_hybrid(const System&, const SolveConfig&, int);
-
-SolveResult run_hybrid(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
-  if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (hybrid runs backend cuda's kernels)");
-  return gpu::run_device_kernels<build<float>, build<double>>(sys, cfg, callback);
-}
 
 }  // namespace radiosity

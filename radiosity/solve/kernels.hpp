@@ -9,6 +9,8 @@
 
 namespace radiosity {
 
+struct SolveResult;
+
 template <class T>
 class Kernels {
  public:
@@ -25,6 +27,12 @@ class Kernels {
   virtual double matrix_bytes() const = 0;  // bytes one matvec reads from the matrix
   // Channels it solves: 3, or 1 for a grey system solved once (its dots and downloads give r = g = b).
   virtual int channels() const { return 3; }
+  // For a backend with a clock of its own (the GPU backends' CUDA events). settled(): returns once all the work
+  // handed to the backend is done, and marks the clock; the driver calls it after the setup and after the method, so
+  // its host timers stop after the device. account(res): what only the backend knows, e.g. the split of the method's
+  // time between those two marks into upload, transfer and compute, and a description of the device.
+  virtual void settled() {}
+  virtual void account(SolveResult&) const {}
 };
 
 }  // namespace radiosity

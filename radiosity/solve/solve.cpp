@@ -20,11 +20,13 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
   hpcgi::Timer t;
   auto k = make(sys, cfg, jac ? kJacobiVectors : kBicgstabVectors);
   k->upload(0, sys.initial);
+  k->settled();
   res.setup_s = t.seconds();
 
   t.reset();
   const Rgb scale = residual_scale(sys);
   const MethodRun run = jac ? jacobi<T>(*k, scale, cfg, callback) : bicgstab<T>(*k, scale, cfg, callback);
+  k->settled();
   res.solve_s = t.seconds() - run.callback_s;
 
   t.reset();
@@ -38,6 +40,7 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
   res.matrix_bytes = k->matrix_bytes();
   res.threads = k->threads();
   res.channels = k->channels();
+  k->account(res);
   return res;
 }
 
@@ -81,9 +84,9 @@ const char* to_string(SolveStatus s) {
 
 // The GPU backends are listed in every build, so that asking for one where it was not built says why.
 #ifdef HAVE_CUDA
-#define GPU_BACKEND(run) true, "", run
+#define GPU_BACKEND(make) true, "", run_kernels<make<float>, make<double>>
 #else
-#define GPU_BACKEND(run) false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr
+#define GPU_BACKEND(make) false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr
 #endif
 
 const std::vector<SolveBackend>& solve_backends() {
@@ -97,11 +100,11 @@ const std::vector<SolveBackend>& solve_backends() {
        {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
-       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(run_cuda)},
+       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_cuda)},
       {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
-       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(run_cublas)},
+       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(make_cublas)},
       {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
-       {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(run_hybrid)},
+       {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_hybrid)},
   };
   return list;
 }
