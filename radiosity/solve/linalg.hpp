@@ -4,9 +4,14 @@
 // convergence and cost O(n).
 #pragma once
 #include <algorithm>
+#include <type_traits>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
+#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
+#include <immintrin.h>
+#endif
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/ff_matrix.hpp"
@@ -15,111 +20,167 @@
 
 namespace radiosity {
 
-// How the kernels read a stored form factor: as float, whatever it is stored as (ff_matrix.hpp).
+// The dense product computes kGroup rows at a time (see matvec_rows).
+inline constexpr size_t kGroup = 4;
+static_assert(kRowAlign % kGroup == 0, "a thread's rows must start on a group");
+
+#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
+#define HPCGI_AVX2_SUMS 1
+#endif
+
+// How the kernels read a stored form factor: as float, whatever it is stored as (ff_matrix.hpp). get reads one
+// value; load8 (AVX2) eight consecutive ones into a vector of floats: F16C's vcvtph2ps widens eight halves in one
+// instruction, a bfloat16 is widened by a zero-extension and a shift.
 struct Float32Values {
   using stored = float;
   static float get(const float* p, size_t k) { return p[k]; }
+#ifdef HPCGI_AVX2_SUMS
+  static __m256 load8(const float* p) { return _mm256_loadu_ps(p); }
+#endif
 };
 struct Float16Values {
   using stored = uint16_t;
   static float get(const uint16_t* p, size_t k) { return half_to_float(p[k]); }
+#ifdef HPCGI_AVX2_SUMS
+  static __m256 load8(const uint16_t* p) {
+    return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+  }
+#endif
 };
 struct BFloat16Values {
   using stored = uint16_t;
   static float get(const uint16_t* p, size_t k) { return bfloat16_to_float(p[k]); }
+#ifdef HPCGI_AVX2_SUMS
+  static __m256 load8(const uint16_t* p) {
+    const __m256i w = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+    return _mm256_castsi256_ps(_mm256_slli_epi32(w, 16));
+  }
+#endif
 };
+
+// Four rows' partial sums over m columns: s[r][ch] += Σ_j F_r[j] x_ch[j], F_r stored as Val, x one contiguous array
+// per channel.
+template <class Val, int Channels, class T>
+inline void sums4(const typename Val::stored* const (&F)[kGroup], const T* __restrict x0, const T* __restrict x1,
+                  const T* __restrict x2, size_t m, T (&s)[kGroup][3]) {
+#ifdef HPCGI_AVX2_SUMS
+  if constexpr (Channels == 3 && std::is_same_v<T, float>) {
+    // Every 8 columns load x's three channels and each row's F once: 7 loads for 12 fused multiply-adds, the twelve
+    // sums in registers. GCC's vectorization of the generic loop below also keeps the sums in registers but loads
+    // an operand again for every multiply-add (24 loads), and a 16-bit F costs it a shift-and-blend per value; the
+    // loads then set the speed even where F comes from cache.
+    __m256 acc[kGroup][3];
+    for (size_t r = 0; r < kGroup; ++r)
+      for (int ch = 0; ch < 3; ++ch) acc[r][ch] = _mm256_setzero_ps();
+    size_t j = 0;
+    for (; j + 8 <= m; j += 8) {
+      const __m256 u0 = _mm256_loadu_ps(x0 + j), u1 = _mm256_loadu_ps(x1 + j), u2 = _mm256_loadu_ps(x2 + j);
+      for (size_t r = 0; r < kGroup; ++r) {
+        const __m256 f = Val::load8(F[r] + j);
+        acc[r][0] = _mm256_fmadd_ps(f, u0, acc[r][0]);
+        acc[r][1] = _mm256_fmadd_ps(f, u1, acc[r][1]);
+        acc[r][2] = _mm256_fmadd_ps(f, u2, acc[r][2]);
+      }
+    }
+    const T* const x[3] = {x0, x1, x2};
+    for (size_t r = 0; r < kGroup; ++r)
+      for (int ch = 0; ch < 3; ++ch) {
+        // The eight lanes added pairwise, then the columns past the last multiple of 8.
+        const __m128 h = _mm_add_ps(_mm256_castps256_ps128(acc[r][ch]), _mm256_extractf128_ps(acc[r][ch], 1));
+        const __m128 q = _mm_add_ps(h, _mm_movehl_ps(h, h));
+        float t = _mm_cvtss_f32(_mm_add_ss(q, _mm_shuffle_ps(q, q, 1)));
+        for (size_t k = j; k < m; ++k) t += Val::get(F[r], k) * x[ch][k];
+        s[r][ch] += t;
+      }
+    return;
+  }
+#endif
+  const typename Val::stored *__restrict Fa = F[0], *__restrict Fb = F[1], *__restrict Fc = F[2],
+                             *__restrict Fd = F[3];
+  T a0 = s[0][0], a1 = s[0][1], a2 = s[0][2], b0 = s[1][0], b1 = s[1][1], b2 = s[1][2];
+  T c0 = s[2][0], c1 = s[2][1], c2 = s[2][2], d0 = s[3][0], d1 = s[3][1], d2 = s[3][2];
+  if constexpr (Channels == 3) {
+    // The simd reduction lets the compiler keep partial sums per lane (it may not reorder a plain floating-point
+    // sum); without it the loop stays scalar.
+#pragma omp simd reduction(+ : a0, a1, a2, b0, b1, b2, c0, c1, c2, d0, d1, d2)
+    for (size_t j = 0; j < m; ++j) {
+      const T u0 = x0[j], u1 = x1[j], u2 = x2[j];
+      const T fa = Val::get(Fa, j), fb = Val::get(Fb, j), fc = Val::get(Fc, j), fd = Val::get(Fd, j);
+      a0 += fa * u0;
+      a1 += fa * u1;
+      a2 += fa * u2;
+      b0 += fb * u0;
+      b1 += fb * u1;
+      b2 += fb * u2;
+      c0 += fc * u0;
+      c1 += fc * u1;
+      c2 += fc * u2;
+      d0 += fd * u0;
+      d1 += fd * u1;
+      d2 += fd * u2;
+    }
+  } else {
+#pragma omp simd reduction(+ : a0, b0, c0, d0)
+    for (size_t j = 0; j < m; ++j) {
+      const T u0 = x0[j];
+      a0 += T(Val::get(Fa, j)) * u0;
+      b0 += T(Val::get(Fb, j)) * u0;
+      c0 += T(Val::get(Fc, j)) * u0;
+      d0 += T(Val::get(Fd, j)) * u0;
+    }
+  }
+  s[0][0] = a0, s[0][1] = a1, s[0][2] = a2, s[1][0] = b0, s[1][1] = b1, s[1][2] = b2;
+  s[2][0] = c0, s[2][1] = c1, s[2][2] = c2, s[3][0] = d0, s[3][1] = d1, s[3][2] = d2;
+}
 
 // Rows of y = a·x + c·ρ ⊙ (F x) + d·e for a dense F, all channels in one pass over F: each F_ij is read once and
 // feeds every channel's accumulator. This pass moves n² values against O(n) for everything else, so it sets the
 // speed of the solver. The rows are row(k), k in [k0, k1), with row(k) = k, or rows[k] when only some rows are
 // computed (the others belong to patches with reflectivity 0; see affine_matvec). Four rows at a time: four
 // streams of F per thread keep more misses in flight than one or two (a read sweep on this project's 2-core EPYC
-// VM runs about 1.8 times as fast with four streams per core as with one), and each x_j, once loaded (and for AOS
-// de-interleaved, the costly part), serves four F values. k0 is a multiple of kGroup, so a row is grouped alike
-// whatever the thread count. Kept out of line so that every backend and thread count runs the same machine code
-// for a row (inlined, the compiler may vectorize each caller's copy differently and move the last bits).
-inline constexpr size_t kGroup = 4;
-static_assert(kRowAlign % kGroup == 0, "a thread's rows must start on a group");
+// VM runs about 1.8 times as fast with four streams per core as with one), and each x_j, once loaded, serves four
+// F values. k0 is a multiple of kGroup, so a row is grouped alike whatever the thread count. Kept out of line so
+// that every backend and thread count runs the same machine code for a row (inlined, the compiler may vectorize
+// each caller's copy differently and move the last bits).
 template <class Val, class V>
 [[gnu::noinline]] void matvec_rows(const typename Val::stored* F, const int32_t* rows, const V& x, V& y,
                                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
                                    typename V::value_type d, size_t k0, size_t k1) {
   using T = typename V::value_type;
-  constexpr size_t S = V::kStep;
+  constexpr int C = V::kChannels;
   const size_t n = x.size();
-  const T* __restrict x0 = x.data(0);
-  const T* __restrict x1 = x.data(1);
-  const T* __restrict x2 = x.data(2);
+  // The inner loop reads x one array per channel: AOS records are de-interleaved once per call into this thread's
+  // scratch (3n values, in L2 for room3), not once per group of rows in the loop, where the shuffles cost as much
+  // as the multiplies. So AOS and SOA run the same loop and give the same bits.
+  const T *x0 = x.data(0), *x1 = x.data(1), *x2 = x.data(2);
+  if constexpr (V::kStep != 1) {
+    static thread_local std::optional<Soa<T>> soa;  // each channel on a cache line, as in the SOA layout
+    if (!soa || soa->size() != n) soa.emplace(n);
+    for (size_t j = 0; j < n; ++j)
+      for (int ch = 0; ch < 3; ++ch) (*soa)(j, ch) = x(j, ch);
+    x0 = soa->data(0), x1 = soa->data(1), x2 = soa->data(2);
+  }
   auto row = [&](size_t k) { return rows ? size_t(rows[k]) : k; };
-  auto store = [&](size_t i, T s0, T s1, T s2) {
-    y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s0 + d * e(i, 0);
-    if constexpr (V::kChannels == 3) {
-      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s1 + d * e(i, 1);
-      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s2 + d * e(i, 2);
+  auto store = [&](size_t i, const T (&s)[3]) {
+    y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s[0] + d * e(i, 0);
+    if constexpr (C == 3) {
+      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s[1] + d * e(i, 1);
+      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s[2] + d * e(i, 2);
     }
   };
-  size_t k = k0;
-  for (; k + 3 < k1; k += kGroup) {
-    const size_t ia = row(k), ib = row(k + 1), ic = row(k + 2), id = row(k + 3);
-    const typename Val::stored* __restrict Fa = F + ia * n;
-    const typename Val::stored* __restrict Fb = F + ib * n;
-    const typename Val::stored* __restrict Fc = F + ic * n;
-    const typename Val::stored* __restrict Fd = F + id * n;
-    T a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0, c0 = 0, c1 = 0, c2 = 0, d0 = 0, d1 = 0, d2 = 0;
-    if constexpr (V::kChannels == 3) {
-      // The simd reduction lets the compiler keep partial sums per lane (it may not reorder a plain floating-point
-      // sum); without it the loop stays scalar.
-#pragma omp simd reduction(+ : a0, a1, a2, b0, b1, b2, c0, c1, c2, d0, d1, d2)
-      for (size_t j = 0; j < n; ++j) {
-        const T u0 = x0[j * S], u1 = x1[j * S], u2 = x2[j * S];
-        const T fa = Val::get(Fa, j), fb = Val::get(Fb, j), fc = Val::get(Fc, j), fd = Val::get(Fd, j);
-        a0 += fa * u0;
-        a1 += fa * u1;
-        a2 += fa * u2;
-        b0 += fb * u0;
-        b1 += fb * u1;
-        b2 += fb * u2;
-        c0 += fc * u0;
-        c1 += fc * u1;
-        c2 += fc * u2;
-        d0 += fd * u0;
-        d1 += fd * u1;
-        d2 += fd * u2;
-      }
-    } else {
-#pragma omp simd reduction(+ : a0, b0, c0, d0)
-      for (size_t j = 0; j < n; ++j) {
-        const T u0 = x0[j];
-        a0 += T(Val::get(Fa, j)) * u0;
-        b0 += T(Val::get(Fb, j)) * u0;
-        c0 += T(Val::get(Fc, j)) * u0;
-        d0 += T(Val::get(Fd, j)) * u0;
-      }
-    }
-    store(ia, a0, a1, a2);
-    store(ib, b0, b1, b2);
-    store(ic, c0, c1, c2);
-    store(id, d0, d1, d2);
-  }
-  for (; k < k1; ++k) {  // the last rows of a count that is not a multiple of kGroup
-    const size_t ia = row(k);
-    const typename Val::stored* __restrict Fa = F + ia * n;
-    T a0 = 0, a1 = 0, a2 = 0;
-    if constexpr (V::kChannels == 3) {
-#pragma omp simd reduction(+ : a0, a1, a2)
-      for (size_t j = 0; j < n; ++j) {
-        const T fa = Val::get(Fa, j);
-        a0 += fa * x0[j * S];
-        a1 += fa * x1[j * S];
-        a2 += fa * x2[j * S];
-      }
-    } else {
-#pragma omp simd reduction(+ : a0)
-      for (size_t j = 0; j < n; ++j) a0 += T(Val::get(Fa, j)) * x0[j];
-    }
-    store(ia, a0, a1, a2);
+  // The last group of a count that is not a multiple of kGroup repeats its last row in the missing places, so that
+  // every row is summed by the same code (and a 16-bit row gives the bits of its float32 widening).
+  for (size_t k = k0; k < k1; k += kGroup) {
+    const size_t rows_here = std::min(kGroup, k1 - k);
+    size_t i[kGroup];
+    for (size_t r = 0; r < kGroup; ++r) i[r] = row(k + std::min(r, rows_here - 1));
+    T s[kGroup][3] = {};
+    const typename Val::stored* const Fr[kGroup] = {F + i[0] * n, F + i[1] * n, F + i[2] * n, F + i[3] * n};
+    sums4<Val, C>(Fr, x0, x1, x2, n, s);
+    for (size_t r = 0; r < rows_here; ++r) store(i[r], s[r]);
   }
 }
+
 template <class Val, class V>
 [[gnu::noinline]] void matvec_csr_rows(const typename Val::stored* F, const int32_t* col, const int64_t* start,
                                        const V& x, V& y, const V& rho, const V& e, typename V::value_type a,
