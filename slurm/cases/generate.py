@@ -93,9 +93,12 @@ def bench(preset, p):
             f"{peer} scipy-cg --threads {t} --n {n}{f' --max-iter {cap}' if cap else ''}")])
     e["bench-hemicube"] = ("Bench: form factors of room3.xml by the hemicube, R = 256, patches per second", None, [
         f"bin/radiosity formfactors {room3} -o {ff} --hemicube 256 --weights exact --threads {t}"])
-    e["bench-jacobi"] = ("Bench: Jacobi steps on room3.xml, float32, ours (AOS, SOA) and NumPy (sgemm, 3 sgemv)", None, [
+    e["bench-jacobi"] = ("Bench: Jacobi steps on room3.xml, float32, ours (AOS, SOA; F in float32, float16, bfloat16) "
+                         "and NumPy (sgemm, 3 sgemv)", None, [
         *(f"bin/radiosity solve {room3} --ff {ff} --steps 32 --backend openmp --precision float --layout {l} "
           f"--threads {t}" for l in ("aos", "soa")),
+        *(f"bin/radiosity solve {room3} --ff {ff} --steps 32 --backend openmp --precision float --layout aos "
+          f"--ff-precision {v} --threads {t}" for v in ("float16", "bfloat16")),
         *(f"{peer} numpy-jacobi {{RRV_SCENES}}/room3.xml --ff {ff} --solved {{FF_DIR}}/bench-room3-solved.xml --steps 32 --way {w} "
           f"--threads {t}" for w in ("gemm", "gemv"))])
     return e
