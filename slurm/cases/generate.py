@@ -74,15 +74,17 @@ def experiments(preset, p):
 
 
 def bench(preset, p):
-    """make bench (slurm/bench runs these in order): the bandwidth limit, each solver's time per iteration, and the
-    peers (SciPy, NumPy with OpenBLAS) on the same problems with the same threads. Room3's form factors at R = 256
-    are the hemicube case's output, read by the Jacobi cases with our 32 steps (slurm/bench makes both once)."""
+    """make bench (slurm/bench runs these in order, the bandwidth limit again before every case): the bandwidth
+    limit, each solver's time per iteration, and the peers (SciPy, NumPy with OpenBLAS) on the same problems with
+    the same threads. Room3's form factors at R = 256 are the hemicube case's output, read by the Jacobi cases with
+    our 32 steps (slurm/bench makes both once)."""
     t = p["cores"]
     room3 = "{RRV_SCENES}/room3.xml --allow-reflectivity-ge-1"
     ff = "{FF_DIR}/bench-room3.ff"
     peer = ".venv/bin/python -m analysis.peers"
     e = {}
-    e["bench-stream"] = ("Bench: memory bandwidth (STREAM triad, read-only sweep)", None, [f"bin/stream --threads {t}"])
+    e["bench-stream"] = ("Bench: memory bandwidth (STREAM triad, read-only sweep), run by slurm/bench before every "
+                         "other bench case", None, [f"bin/stream --threads {t}"])
     # Full solves where SciPy takes seconds; beyond, the same capped iterations for everyone, enough for ours to
     # run a second or more (this VM's first few hundred milliseconds of a run are slower).
     cg = [(256, None), (512, None), (1024, 200), (2048, 200)]
