@@ -2,7 +2,7 @@
 the newest bandwidth record): medians over repeats of our time per iteration, the bandwidth it implies as a
 fraction of the triad bandwidth measured next to it (slurm/bench measures the limit before every case: on a shared
 VM it drifts with the neighbours), and the peers' time over ours; then the targets of issue 7, met or not. Prints
-the table and writes $RESULTS/tables/bench.md."""
+the table and writes $RESULTS/tables/bench_PRESET.md."""
 import sys
 
 import pandas as pd
@@ -162,9 +162,9 @@ def write(preset):
             f"triad next to it: the STREAM triad bandwidth measured just before and just after the case (median); "
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "
             f"same problem (peer/ours, > 1: ours is faster).")
-    text = f"# make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
+    text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
     TABLES.mkdir(parents=True, exist_ok=True)
-    path = TABLES / "bench.md"
+    path = TABLES / f"bench_{preset}.md"
     path.write_text(text)
     return text, path
 

@@ -153,7 +153,8 @@ def write(preset):
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
             "### Figure 4.2", "", image("figure42", preset, "Figure 4.2"), "",
-            *accuracy.report_section(preset, include, image)]
+            *accuracy.report_section(preset, include, image),
+            "## Performance: the bandwidth limit and the peers (`make bench`)", "", include("bench", preset)]
     path = REPORT / f"REPORT-{preset}.md"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(out) + "\n")

@@ -127,7 +127,7 @@ def test_bench_table_from_records(tmp_path):
     p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 0, p.stderr
-    table = (res / "tables" / "bench.md").read_text()
+    table = (res / "tables" / "bench_quick.md").read_text()
     assert "CPU timings" in table and "openmp onesweep, 6 vectors" in table and "SciPy" in table
     assert "limit: STREAM triad" in table
     assert "CG N=2048 (openmp" in table and "faster per iteration than SciPy" in table
