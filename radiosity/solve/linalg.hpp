@@ -22,7 +22,6 @@ namespace radiosity {
 
 // The dense product computes kGroup rows at a time (see matvec_rows).
 inline constexpr size_t kGroup = 4;
-static_assert(kRowAlign % kGroup == 0, "a thread's rows must start on a group");
 
 #if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
 #define HPCGI_AVX2_SUMS 1
@@ -147,9 +146,10 @@ inline void sums4(const typename Val::stored* const (&F)[kGroup], const T* __res
 // computed (the others belong to patches with reflectivity 0; see affine_matvec). Four rows at a time: four
 // streams of F per thread keep more misses in flight than one or two (a read sweep on this project's 2-core EPYC
 // VM runs about 1.8 times as fast with four streams per core as with one), and each x_j, once loaded, serves four
-// F values. k0 is a multiple of kGroup, so a row is grouped alike whatever the thread count. Kept out of line so
-// that every backend and thread count runs the same machine code for a row (inlined, the compiler may vectorize
-// each caller's copy differently and move the last bits).
+// F values. A row's sums do not depend on which rows share its group, so the bits are the same whatever the
+// thread count and however a thread's rows are grouped (see below). Kept out of line so that every backend and
+// thread count runs the same machine code for a row (inlined, the compiler may vectorize each caller's copy
+// differently and move the last bits).
 template <class Val, class V>
 [[gnu::noinline]] void matvec_rows(const typename Val::stored* F, const int32_t* rows, const V& x, V& y,
                                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
@@ -176,12 +176,21 @@ template <class Val, class V>
       y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s[2] + d * e(i, 2);
     }
   };
-  // The last group of a count that is not a multiple of kGroup repeats its last row in the missing places, so that
-  // every row is summed by the same code (and a 16-bit row gives the bits of its float32 widening).
-  for (size_t k = k0; k < k1; k += kGroup) {
-    const size_t rows_here = std::min(kGroup, k1 - k);
-    size_t i[kGroup];
-    for (size_t r = 0; r < kGroup; ++r) i[r] = row(k + std::min(r, rows_here - 1));
+  // The four rows of a group come from the four quarters of [k0, k1): group g sums rows k0 + g, k0 + L + g,
+  // k0 + 2L + g and k0 + 3L + g. So each of the four streams of F runs on from one row into the next, one long
+  // sequential sweep per quarter as in bin/stream's read sweep, instead of four streams that end every row. A row's
+  // sums do not depend on the rows beside it, so the grouping leaves the bits alone. A quarter that runs out
+  // repeats its group's first row in its place, so every row is summed by the same code (and a 16-bit row gives
+  // the bits of its float32 widening).
+  const size_t quarter = (k1 - k0 + kGroup - 1) / kGroup;
+  for (size_t g = 0; g < quarter; ++g) {
+    size_t i[kGroup], rows_here = 1;
+    i[0] = row(k0 + g);
+    for (size_t r = 1; r < kGroup; ++r) {
+      const size_t k = k0 + r * quarter + g;
+      i[r] = k < k1 ? row(k) : i[0];
+      rows_here += k < k1;
+    }
     T s[kGroup][3] = {};
     const typename Val::stored* const Fr[kGroup] = {F + i[0] * n, F + i[1] * n, F + i[2] * n, F + i[3] * n};
     sums4<Val, C>(Fr, x0, x1, x2, n, s);
@@ -227,9 +236,8 @@ void matvec_skipped_row(const V& x, V& y, const V& e, typename V::value_type a, 
 }
 
 // y = a·x + c·ρ ⊙ (F x) + d·e for a dense F of stored values Val. `rows`: the rows to compute, increasing (the
-// others are patches with reflectivity 0, given a·x + d·e), or empty for all. With rows, the groups are
-// rows[kGroup·m ...] and the thread whose block holds a group's first row computes it, so the grouping, and the
-// bits, are the same for any thread count. y must not be x.
+// others are patches with reflectivity 0, given a·x + d·e), or empty for all. Each thread computes the rows of its
+// block (matvec_rows gives a row the same bits whatever rows it is grouped with). y must not be x.
 template <class Val, class Exec, class V>
 void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vector<int32_t>& rows, const V& x, V& y,
                   const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
@@ -247,8 +255,7 @@ void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vect
       else
         matvec_skipped_row(x, y, e, a, d, i);
     }
-    const size_t k0 = round_up(lo, kGroup), k1 = std::min(round_up(hi, kGroup), rows.size());
-    if (k0 < k1) matvec_rows<Val>(F, rows.data(), x, y, rho, e, a, c, d, k0, k1);
+    if (lo < hi) matvec_rows<Val>(F, rows.data(), x, y, rho, e, a, c, d, lo, hi);
   });
 }
 
