@@ -208,11 +208,70 @@ def extreme_boxes():
             ("side1e-4", f"{d}/box_side1e-4.xml", "1e-9"), ("side1e4", f"{d}/box_side1e4.xml", "1e7")]
 
 
+# Radiosity across nodes (issue 9): form factors and solves on MPI ranks, each rank its block of rows of F.
+# strong: one scene, P = 1 .. ranks; weak: patches n growing as √P, so that a rank's share of the dense F (4n²/P bytes,
+# the memory that decides how many nodes a scene needs) stays about the same: --divide values picked from the patch
+# counts `bin/radiosity info` gives (noted beside each). large: a scene one rank may not hold
+# (--max-memory-per-rank), its form factors and solve on enough ranks; in the paper preset a scene too large for one
+# node's memory, across 4 nodes (slurm/mpi-large.sbatch says how its size was chosen).
+MPI = {
+    "quick": dict(scene=2, hemicube=64, ranks=[1, 2, 3, 4], threads=1,
+                  # scene1 at these divides: 1312, 1860, 2240, 2656 patches: n²/P = 1.72, 1.73, 1.67, 1.76 M
+                  weak=[(1, 1, 1.0), (2, 1, 0.61), (3, 1, 0.45), (4, 1, 0.3)],
+                  large=dict(scene=2, divide=1.0, ranks=4, limit="16M")),
+    "ci": dict(scene=1, hemicube=16, ranks=[1, 2], threads=1, weak=[(1, 1, 1.0), (2, 1, 0.61)],
+               large=dict(scene=1, divide=1.0, ranks=2, limit="5M")),
+    "paper": dict(scene=4, hemicube=256, ranks=[1, 2, 4, 8, 16], threads=1,
+                  # room2 at these divides: 17128 ... patches, n²/P about constant
+                  weak=[(1, 4, 1.0), (2, 4, 0.5), (4, 4, 0.25), (8, 4, 0.125), (16, 4, 0.0625)],
+                  large=dict(scene=4, divide=0.1, ranks=64, limit="3G")),
+}
+
+
+def mpi_experiments(preset, p):
+    m = MPI[preset]
+    ff = "{FF_DIR}/" + preset + "-mpi-{name}.ff"
+    hemi = f"--hemicube {m['hemicube']} --weights {p['weights']} --threads {m['threads']}"
+
+    def scene(s, divide):
+        return f"{SCENES[s][1]}{SCENES[s][2]}" + (f" --divide {divide:g}" if divide != 1.0 else "")
+
+    strong = SCENES[m["scene"]][0]
+    top = max(m["ranks"])
+    e = {}
+    e["mpi-formfactors"] = ("Radiosity across nodes: form factors on P MPI ranks, one file written together (MPI-IO); "
+                            f"strong scaling on {strong}, weak scaling (patches grow as sqrt(P))", 1, [
+        *(f"ranks={r} bin/radiosity formfactors {scene(m['scene'], 1.0)} -o {ff.format(name=f'{strong}-P{r}')} {hemi}"
+          for r in m["ranks"]),
+        *(f"ranks={r} bin/radiosity formfactors {scene(s, d)} -o {ff.format(name=f'weak-P{r}')} {hemi}"
+          for r, s, d in m["weak"])])
+    solve = f"--tol 1e-6 --threads {m['threads']}"
+    # The solves read the file written by the most ranks: a file does not depend on who wrote it.
+    strong_ff = ff.format(name=f"{strong}-P{top}")
+    e["mpi-radiosity"] = ("Radiosity across nodes: Jacobi and BiCG-STAB on P MPI ranks (--backend mpi) beside one "
+                          "process (openmp); strong scaling and weak scaling", None, [
+        *(f"bin/radiosity solve {scene(m['scene'], 1.0)} --ff {strong_ff} --method {meth} --backend openmp {solve}"
+          for meth in ("jacobi", "bicgstab")),
+        *(f"ranks={r} bin/radiosity solve {scene(m['scene'], 1.0)} --ff {strong_ff} --method {meth} --backend mpi {solve}"
+          for meth in ("jacobi", "bicgstab") for r in m["ranks"]),
+        *(f"ranks={r} bin/radiosity solve {scene(s, d)} --ff {ff.format(name=f'weak-P{r}')} --method jacobi "
+          f"--backend mpi {solve}" for r, s, d in m["weak"])])
+    lg = m["large"]
+    big = ff.format(name="large")
+    e["mpi-large"] = (f"Radiosity across nodes: a scene one rank may not hold (--max-memory-per-rank {lg['limit']}), its "
+                      f"form factors and Jacobi solve on {lg['ranks']} ranks; run in order by slurm/mpi-large.sbatch", 1, [
+        f"ranks={lg['ranks']} bin/radiosity formfactors {scene(lg['scene'], lg['divide'])} -o {big} {hemi} "
+        f"--max-memory-per-rank {lg['limit']}",
+        f"ranks={lg['ranks']} bin/radiosity solve {scene(lg['scene'], lg['divide'])} --ff {big} --method jacobi "
+        f"--backend mpi {solve} --max-memory-per-rank {lg['limit']}"])
+    return e
+
+
 def main():
     for preset, p in PRESETS.items():
         (HERE / preset).mkdir(exist_ok=True)
         lists = {**experiments(preset, p), **(bench(preset, p) if preset != "ci" else {}),
-                 **(accuracy(preset, p) if preset in ACCURACY else {})}
+                 **(accuracy(preset, p) if preset in ACCURACY else {}), **mpi_experiments(preset, p)}
         for name, (title, repeat, lines) in lists.items():
             text = HEADER.format(title=title, preset=preset)
             if repeat:
