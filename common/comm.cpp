@@ -88,7 +88,7 @@ double min(double v) {
 
 std::vector<double> gather(double v) {
   if (!active()) return {v};
-  std::vector<double> all(size_t(g_size));
+  std::vector<double> all(static_cast<size_t>(g_size));
   MPI_Allgather(&v, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, MPI_COMM_WORLD);
   return all;
 }

@@ -5,8 +5,10 @@
 // a refusal, summing counts for the record, gathering each rank's numbers.
 #pragma once
 #include <cstdint>
+#include <exception>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>

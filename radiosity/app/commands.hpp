@@ -35,6 +35,7 @@ struct FormFactorArgs : SceneArgs {
   std::string out;
   HemicubeParams hemicube;
   std::string weights = "exact";
+  std::string split = "work";  // under MPI: rows in blocks of equal estimated work, or of equal count ("rows")
 };
 void add_formfactors(CLI::App& app, FormFactorArgs& a);
 int run_formfactors(const FormFactorArgs& a);

@@ -3,6 +3,7 @@
 // work, and the ranks write the one file together with MPI-IO (radiosity/dist/).
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -40,6 +41,10 @@ void add_formfactors(CLI::App& app, FormFactorArgs& a) {
       ->check(CLI::IsMember({"exact", "rrv2007"}))->capture_default_str();
   cmd->add_option("--threshold", a.hemicube.threshold, "store form factors <= T as 0 (RRV's threshold)")
       ->capture_default_str();
+  cmd->add_option("--split", a.split,
+                  "under mpirun: rows in blocks of equal estimated hemicube work (work) or of equal count (rows, to "
+                  "compare)")
+      ->check(CLI::IsMember({"work", "rows"}))->capture_default_str();
 }
 
 namespace {
@@ -66,27 +71,32 @@ RowSums row_sums(const FormFactorRows& rows) {
 int run_formfactors(const FormFactorArgs& a) {
   hpcgi::Timer total;
   HemicubeParams hp = a.hemicube;
-  hp.weights = parse_hemicube_weights(a.weights);
-  validate(hp);
+  double limit = 0;
+  hpcgi::comm::agreed([&] {  // every rank checks alike, rank 0 reports
+    hp.weights = parse_hemicube_weights(a.weights);
+    validate(hp);
+    limit = a.memory_limit();
+  });
   const bool dist = hpcgi::comm::active();
   const int ranks = hpcgi::comm::size(), rank = hpcgi::comm::rank();
   const bool root = hpcgi::comm::root();
-  const double limit = a.memory_limit();
   double load_s = 0;
   const Mesh m = hpcgi::comm::agreed([&] { return load_scene(a, &load_s); });
   const size_t n = m.size();
   const double n2 = double(n) * double(n);
   const int threads = omp_get_max_threads();
 
-  // The split: rows in blocks of equal estimated hemicube work. Every rank computes the same estimate and split.
+  // The split: rows in blocks of equal estimated hemicube work, the same on every rank (each computes the same
+  // estimate). The work split gives more rows, so more memory, to the ranks whose rows are cheap; when that alone
+  // would break --max-memory-per-rank and blocks of equal count would not, the blocks of equal count are taken.
   hpcgi::Timer t;
-  const std::vector<uint64_t> work = dist ? hemicube_row_work(m, hp) : std::vector<uint64_t>(n, 1);
+  const bool estimate = a.split == "work" && (dist || limit > 0);  // a serial run estimates only for its advice
+  const std::vector<uint64_t> work = estimate ? hemicube_row_work(m, hp) : std::vector<uint64_t>();
+  const std::vector<uint64_t> ones(n, 1);
   const double split_s = t.seconds();
-  auto split = [&](int p) { return dist::split_by_work(work, p); };
-  const NeedsAt needs = [&](int p) {
-    const std::vector<size_t> b = split(p);
+  auto needs_of = [&](const std::vector<size_t>& b) {
     std::vector<RankNeed> v;
-    for (int r = 0; r < p; ++r) {
+    for (size_t r = 0; r + 1 < b.size(); ++r) {
       const size_t rows = b[r + 1] - b[r];
       v.push_back({rows, 4.0 * double(rows) * double(n),
                    hemicube_memory_bytes(n, rows, hp.resolution, threads) - 4.0 * double(rows) * double(n) +
@@ -94,7 +104,27 @@ int run_formfactors(const FormFactorArgs& a) {
     }
     return v;
   };
-  const std::vector<size_t> bounds = split(ranks);
+  auto largest = [](const std::vector<RankNeed>& v) {
+    double m = 0;
+    for (const RankNeed& x : v) m = std::max(m, x.total());
+    return m;
+  };
+  bool by_count = !estimate;  // of the split this run takes (bounds below)
+  auto split = [&](int p, bool* counted = nullptr) {
+    std::vector<size_t> b = dist::split_by_work(estimate ? work : ones, p);
+    bool count = !estimate;
+    if (estimate && limit > 0 && largest(needs_of(b)) > limit) {
+      std::vector<size_t> even = dist::split_by_work(ones, p);
+      if (largest(needs_of(even)) <= limit) {
+        b = std::move(even);
+        count = true;
+      }
+    }
+    if (counted) *counted = count;
+    return b;
+  };
+  const NeedsAt needs = [&](int p) { return needs_of(split(p)); };
+  const std::vector<size_t> bounds = split(ranks, &by_count);
   const dist::RowBlock block = dist::block_of(bounds, rank);
   const std::string patches = std::to_string(n) + " patches";
   require_memory_per_rank(limit, needs, ranks, "the form factors of " + patches,
@@ -156,6 +186,8 @@ int run_formfactors(const FormFactorArgs& a) {
   if (dist) {
     rec["params"]["backend"] = "mpi";
     rec["params"]["ranks"] = ranks;
+    rec["params"]["split"] = a.split;
+    rec["params"]["split_taken"] = by_count ? "rows" : "work";
   }
   rec["result"] = {{"min_row_sum", d.min_row_sum},
                    {"max_row_sum", d.max_row_sum},
@@ -173,13 +205,17 @@ int run_formfactors(const FormFactorArgs& a) {
   rec["perf"] = {{"patches_per_s", double(n) / slowest_s}, {"peak_rss_bytes", peak_rss_bytes()}};
   if (dist) {
     nlohmann::json mpi = mpi_section(needs(ranks), limit);  // collective
+    // The estimate of every rank's hemicube seconds on one core, whichever split was taken.
+    const std::vector<uint64_t> cost = estimate ? work : hemicube_row_work(m, hp);
     std::vector<double> est;
     for (int r = 0; r < ranks; ++r) {
       double w = 0;
-      for (size_t i = bounds[r]; i < bounds[r + 1]; ++i) w += double(work[i]);
+      for (size_t i = bounds[r]; i < bounds[r + 1]; ++i) w += double(cost[i]);
       est.push_back(w * 1e-9);
     }
-    mpi["split"] = "rows in blocks of equal estimated hemicube work (hemicube_row_work)";
+    mpi["split"] = !by_count      ? "rows in blocks of equal estimated hemicube work (hemicube_row_work)"
+                   : estimate     ? "rows in blocks of equal count (the work split would exceed --max-memory-per-rank)"
+                                  : "rows in blocks of equal count";
     mpi["split_s"] = split_s;
     mpi["rank_estimated_s"] = est;
     mpi["rank_hemicube_s"] = rank_compute_s;

@@ -1,11 +1,11 @@
 // `bin/radiosity solve`: one solve of a scene whose form factors are in a file, checked against the float64
 // reference, with the scene, pictures and a record written on request.
 #include <omp.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -185,21 +185,32 @@ int run_solve(const SolveArgs& a) {
   hpcgi::Timer total;
   SolveConfig cfg = a.cfg;
   cfg.threads = a.threads;
-  const auto [width, height] = parse_size(a.size);
-  const SolveBackend& backend = find_backend(cfg.backend);
-  const FFValues values = parse_ff_values(a.ff_precision);
   // Backend mpi: every rank reads its block of rows of F and the ranks solve together; rank 0 alone prints and
-  // writes (the record, the scene, the pictures).
-  const bool dist = backend.distributed;
+  // writes (the record, the scene, the pictures). Every check before the first collective runs on every rank alike,
+  // and the ranks agree on its outcome (comm::agreed), so that rank 0 alone reports a refusal.
   const int ranks = hpcgi::comm::size(), rank = hpcgi::comm::rank();
   const bool root = hpcgi::comm::root();
-  const double limit = a.memory_limit();
-  if (dist && !a.reference_ff.empty())
-    throw hpcgi::Agreed<hpcgi::UsageError>("--reference-ff is read by one process; backend mpi takes its error "
-                                           "reference from --ff (solve the finer mesh with serial or openmp)");
-  if (!backend.any_storage && (a.storage == "csr" || values != FFValues::float32))
-    throw hpcgi::UsageError("backend '" + backend.name + "' reads dense float32 form factors only: --storage csr and "
-                            "--ff-precision float16|bfloat16 run on serial and openmp");
+  std::pair<int, int> picture;
+  const SolveBackend* chosen = nullptr;
+  FFValues values = FFValues::float32;
+  double limit = 0;
+  hpcgi::comm::agreed([&] {
+    picture = parse_size(a.size);
+    chosen = &find_backend(cfg.backend);
+    values = parse_ff_values(a.ff_precision);
+    limit = a.memory_limit();
+    if (!chosen->built)  // before anything is read for it
+      throw hpcgi::UsageError("solver backend '" + chosen->name + "' is not available: " + chosen->why_not);
+    if (chosen->distributed && !a.reference_ff.empty())
+      throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
+                              "--ff (solve the finer mesh with serial or openmp)");
+    if (!chosen->any_storage && (a.storage == "csr" || values != FFValues::float32))
+      throw hpcgi::UsageError("backend '" + chosen->name + "' reads dense float32 form factors only: --storage csr "
+                              "and --ff-precision float16|bfloat16 run on serial and openmp");
+  });
+  const auto [width, height] = picture;
+  const SolveBackend& backend = *chosen;
+  const bool dist = backend.distributed;
   double load_s = 0;
   const Mesh m = hpcgi::comm::agreed([&] { return load_scene(a, &load_s); });
   const size_t n = m.size();
@@ -306,7 +317,7 @@ int run_solve(const SolveArgs& a) {
   const bool same_matrix = !have_ref && values == FFValues::float32 && !dropped;
   double ref_in_build_s = 0;  // the reference solved here is no part of building the run's form factors
   if (a.verify && !have_ref && !same_matrix) {
-    ref = converged_reference(sys, "");
+    ref = hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
     ref_in_build_s = ref.seconds;
     have_ref = true;
   }
@@ -331,13 +342,13 @@ int run_solve(const SolveArgs& a) {
   }
   size_t rows_without_reflection = 0;
   for (const Rgb& rho : sys.reflectivity) rows_without_reflection += !row_needed(rho);
-  // Only the backends that read any storage skip those rows; the others compute them.
-  const size_t skipped_rows = backend.any_storage ? rows_without_reflection : 0;
+  // The backends that read any storage skip those rows, and mpi (the same product); the others compute them.
+  const size_t skipped_rows = backend.any_storage || backend.distributed ? rows_without_reflection : 0;
   if (cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
     hpcgi::require_host_memory("backend original's cache lines for " + patches,
                                16.0 * (double(kept) + double(rows_without_reflection) * double(n)));
   const double ff_build_s = t.seconds() - ref_in_build_s;
-  const Camera cam = parse_view(a.view, m);
+  const Camera cam = hpcgi::comm::agreed([&] { return parse_view(a.view, m); });
   RenderOptions ropt;
   ropt.exposure = a.exposure;
 
@@ -345,27 +356,38 @@ int run_solve(const SolveArgs& a) {
   const std::string prefix = a.snapshot_prefix.empty() ? "snapshot" : a.snapshot_prefix;
   std::vector<std::string> snapshot_files;
   IterationCallback cb;
-  if (!snaps.empty())  // on every rank (fetching B is collective), drawn by rank 0
+  // On every rank (fetching B is collective), drawn by rank 0. A failure to write is kept until the solve ends: a
+  // rank that left the solve early would leave the others waiting in its collectives.
+  std::exception_ptr snapshot_error;
+  if (!snaps.empty())
     cb = [&](long it, const std::vector<Rgb>& B) {
       if (!snaps.count(it)) return;
       const std::string f = prefix + "_iter" + std::to_string(it) + ".png";
-      if (root) write_png(f, render(m, B, cam, width, height, ropt));
+      try {
+        if (root && !snapshot_error) write_png(f, render(m, B, cam, width, height, ropt));
+      } catch (...) {
+        snapshot_error = std::current_exception();
+      }
       snapshot_files.push_back(f);
     };
-  const SolveResult res = solve(sys, cfg, cb);
+  // Agreed: a refused configuration is refused by every rank before any collective (solve checks first).
+  const SolveResult res = hpcgi::comm::agreed([&] { return solve(sys, cfg, cb); });
+  hpcgi::comm::agreed([&] {
+    if (snapshot_error) std::rethrow_exception(snapshot_error);
+  });
   const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
                       res.status == SolveStatus::divergent;
   Verification v;
   double error = 0;
   if (a.verify && !failed) {
-    if (!have_ref) ref = converged_reference(sys, "");
+    if (!have_ref) ref = hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
     if (ref.of.empty())
       ref.of = a.ff + (same_matrix ? "" : " before threshold and rounding") + " (" + patches + ")";
-    v = verify(sys, cfg, res, same_matrix ? &ref : nullptr);
+    v = hpcgi::comm::agreed([&] { return verify(sys, cfg, res, same_matrix ? &ref : nullptr); });
     error = max_rel_diff(res.B, ref.B);
   }
   const double passes_bytes = res.matrix_bytes * static_cast<double>(res.matrix_passes);
-  const bool gpu = !res.backend_info.empty();  // the GPU backends describe their GPU
+  const bool gpu = res.backend_info.count("gpu") > 0;  // the GPU backends describe their GPU
   const bool hybrid = cfg.backend == "hybrid";
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "solve"},

@@ -29,12 +29,14 @@ constexpr int64_t kSub = 256;
 // Triangles are clipped to a guard band twice the face's field of view (|x|, |y| <= 2d) as well as to the near
 // plane, which bounds the fixed-point coordinates; clipping outside the face changes no pixel inside it.
 constexpr double kGuard = 2.0;
-// hemicube_row_work's cost model, in nanoseconds on one core: transforming a patch into the row's frame, clipping
-// and rasterising a patch in front of the row's patch, clearing and gathering one pixel. Fitted to rows timed on
-// this project's 2-core development machine (see hemicube_row_work); only their ratios matter for a split.
-constexpr double kWorkPerPatchNs = 8;
-constexpr double kWorkPerFrontPatchNs = 60;
-constexpr double kWorkPerPixelNs = 2;
+// hemicube_row_work's cost model, in nanoseconds on one core: transforming a patch into the row's frame; clipping
+// and rasterising a patch in front of the row's patch (more pixels to fill at a finer hemicube: a + b·R); clearing
+// and gathering one pixel. Fitted to single rows timed on this project's 2-core development machine (scene1, scene2
+// at R = 32, 128, 256, room3 at R = 64: per row, const + per-front-patch cost explains the time within 12-18% rms);
+// only their ratios matter for a split.
+constexpr double kWorkPerPatchNs = 25;
+constexpr double kWorkPerFrontPatchNs = 50, kWorkPerFrontPatchPerRNs = 0.5;
+constexpr double kWorkPerPixelNs = 1.5;
 // Pixels a row's span is filled in at a time (8 floats: one AVX2 vector).
 constexpr int kLanes = 8;
 
@@ -495,6 +497,7 @@ std::vector<uint64_t> hemicube_row_work(const Mesh& mesh, const HemicubeParams& 
   const size_t n = mesh.size();
   const size_t stride = std::max<size_t>(1, (n + sample - 1) / std::max<size_t>(1, sample));
   const double pixels = 3.0 * double(params.resolution) * double(params.resolution);
+  const double per_front = kWorkPerFrontPatchNs + kWorkPerFrontPatchPerRNs * params.resolution;
   std::vector<uint64_t> work(n);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < int64_t(n); ++i) {
@@ -512,7 +515,7 @@ std::vector<uint64_t> hemicube_row_work(const Mesh& mesh, const HemicubeParams& 
       for (int k = 0; k < 3; ++k) in_front = in_front || (pj.v[k] - c).dot(nrm) > 0;
       front += in_front;
     }
-    work[size_t(i)] = uint64_t(kWorkPerPatchNs * double(n) + kWorkPerFrontPatchNs * double(front * stride) +
+    work[size_t(i)] = uint64_t(kWorkPerPatchNs * double(n) + per_front * double(front * stride) +
                                kWorkPerPixelNs * pixels);
   }
   return work;
