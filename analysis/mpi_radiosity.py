@@ -20,6 +20,8 @@ MIB = 2.0 ** 20
 
 def series(path):
     name = str(path)
+    if name.endswith("-rows.ff"):
+        return "strong, equal-count split"
     if "mpi-weak" in name:
         return "weak"
     if "mpi-large" in name:
@@ -34,10 +36,10 @@ def _max(v):
 def records(preset):
     """(form-factor records, solve records) of the three experiments, one row per run, with the columns below."""
     frames = [load(e, preset) for e in ("mpi-formfactors", "mpi-radiosity", "mpi-large")]
-    frames = [f for f in frames if not f.empty]
+    frames = [f.dropna(axis=1, how="all") for f in frames if not f.empty]
     if not frames:
         return pd.DataFrame(), pd.DataFrame()
-    df = pd.concat(frames, ignore_index=True)
+    df = pd.concat(frames, ignore_index=True).copy()
     df["ranks"] = df["params.ranks"].fillna(1).astype(int) if "params.ranks" in df.columns else 1
     df["n"] = df["params.patches"].astype(int)
     df["n2_per_rank_M"] = df["n"] ** 2 / df["ranks"] / 1e6
@@ -110,11 +112,23 @@ def growth_notes(ff, sv):
         notes.append("Weak scaling (Jacobi, n²/P about constant): " + "; ".join(
             f"P = {p}: {int(r.n)} patches, F per rank {r.ff:.1f} MiB, {r.t * 1e3:.3g} ms/iteration"
             for p, r in m.iterrows()) + ".")
+    both = pd.concat([x for x in (ff, sv) if not x.empty])
+    base = (both["peak RSS per rank MiB"] - both["F per rank MiB"]).median()
+    notes.append(f"Peak resident memory per rank = F per rank + about {base:.0f} MiB that does not depend on n or P "
+                 "here (the program and its libraries, the mesh, the vectors: O(n)); F, 4n²/P, is what grows.")
     f = ff[ff["series"] == "strong"] if not ff.empty else ff
     if len(f):
         m = f.groupby("ranks")["times_s.hemicube"].median()
         notes.append("Form factors (strong): hemicube " + ", ".join(f"{v:.3g} s at P = {p}" for p, v in m.items()) +
                      " (time ∝ n²/P: every row renders all n patches).")
+    eq = ff[ff["series"] == "strong, equal-count split"] if not ff.empty else ff
+    if len(eq) and len(f):
+        p = int(eq["ranks"].iloc[0])
+        w = f[f["ranks"] == p]
+        if len(w) and "mpi.hemicube_imbalance" in ff.columns:
+            notes.append(f"Split at P = {p}: blocks of equal estimated work {w['times_s.hemicube'].median():.3g} s "
+                         f"(slowest / mean rank {w['mpi.hemicube_imbalance'].median():.2f}), blocks of equal count "
+                         f"{eq['times_s.hemicube'].median():.3g} s ({eq['mpi.hemicube_imbalance'].median():.2f}).")
     return notes
 
 

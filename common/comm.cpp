@@ -11,9 +11,6 @@
 #include <stdexcept>
 
 namespace hpcgi::comm {
-namespace {
-int g_rank = 0, g_size = 1;
-}
 
 std::pair<int, std::string> classify(std::exception_ptr e) {
   try {
@@ -38,6 +35,10 @@ namespace {
 }  // namespace
 
 #ifdef HAVE_MPI
+
+namespace {
+int g_rank = 0, g_size = 1;  // set by Session, kept after MPI_Finalize
+}  // namespace
 
 bool built() { return true; }
 

@@ -25,10 +25,11 @@ void require_memory_per_rank(double limit, const NeedsAt& needs, int ranks, cons
   const RankNeed& worst = largest(now);
   if (worst.total() <= limit) return;
   const int r = int(&worst - now.data());
-  std::string msg = what + " needs " + hpcgi::format_bytes(worst.total()) + " on rank " + std::to_string(r) + " of " +
-                    std::to_string(ranks) + " (its " + std::to_string(worst.rows) + " rows of the form factors " +
-                    hpcgi::format_bytes(worst.ff_bytes) + ", the rest " + hpcgi::format_bytes(worst.other_bytes) +
-                    "), more than --max-memory-per-rank " + hpcgi::format_bytes(limit) + " allows; ";
+  std::string msg = "rank " + std::to_string(r) + " of " + std::to_string(ranks) + " would hold " +
+                    hpcgi::format_bytes(worst.total()) + " for " + what + " (its " + std::to_string(worst.rows) +
+                    " rows of the form factors " + hpcgi::format_bytes(worst.ff_bytes) + ", the rest " +
+                    hpcgi::format_bytes(worst.other_bytes) + "), more than --max-memory-per-rank " +
+                    hpcgi::format_bytes(limit) + "; ";
   int fits = 0;
   for (int p = ranks + 1; p <= 4096 && !fits; ++p)
     if (largest(needs(p)).total() <= limit) fits = p;

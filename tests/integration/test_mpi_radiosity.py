@@ -5,9 +5,11 @@ of ranks; the records say what each rank held and moved; a scene one rank may no
 refused with exit status 2 and one line, nothing written, and computed and solved on 4 ranks."""
 import json
 import shutil
+import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from conftest import BIN, MPI_ENV, ROOT, run
@@ -257,3 +259,20 @@ def test_too_large_for_one_rank_is_computed_and_solved_on_four(large, tmp_path):
     n = rec["params"]["patches"]
     assert max(rec["mpi"]["rank_need_bytes"]) <= 16 * 2**20 and rec["verify"]["agreed"] is True
     assert max(rec["mpi"]["rank_ff_bytes"]) < 4 * n * n / 3
+
+
+def test_ci_case_lists_run_on_the_local_runner_and_make_the_table(tmp_path):
+    """The experiments of make reproduce (mpi-formfactors, mpi-radiosity, mpi-large) at the ci preset, through
+    slurm/run-local as an array task would run them, then their table and plot."""
+    e = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "REPEAT": "1"}
+    p = run([ROOT / "slurm" / "run-local", "mpi-formfactors", "mpi-radiosity", "mpi-large"], env=e, timeout=600)
+    assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
+    ff = sorted((tmp_path / "ff").glob("ci-mpi-scene1-P*.ff"))
+    assert len(ff) == 3 and len({f.read_bytes() for f in ff}) == 1  # P = 1, 2 and the equal-count split: one file
+    p = run([sys.executable, "-m", "analysis", "tables", "ci"], env=e, cwd=ROOT, timeout=300)
+    assert p.returncode == 0, p.stderr
+    t = pd.read_csv(tmp_path / "results" / "tables" / "mpi_radiosity_ci.csv")
+    solves = t[t["command"] == "solve"]
+    assert {"strong", "weak", "large", "one process"} <= set(solves["series"])
+    assert solves["agreed"].all()
+    assert (tmp_path / "results" / "plots" / "mpi_radiosity_ci.png").stat().st_size > 0
