@@ -75,7 +75,8 @@ EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accu
                mpi-radiosity mpi-large
 .PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench FORCE
 all: $(PROGRAMS)
-	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi (bin/poisson, bin/radiosity solve) and formfactors under mpirun are not built")
+	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
+	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
 	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: $(if $(SANITIZE),nvcc's objects cannot be sanitized,no '$(NVCC)' on PATH (set NVCC=...)); backends cublas1, cublas2, cuda are not built")
 
 help:

@@ -103,12 +103,13 @@ def growth_notes(ff, sv):
         m = s.groupby("ranks").agg(ff=("F per rank MiB", "max"), t=("times_s.per_iteration", "median"),
                                    rss=("peak RSS per rank MiB", "max"))
         lo, hi = m.index.min(), m.index.max()
-        notes.append(f"Strong scaling (Jacobi, {int(s['n'].iloc[0])} patches): F per rank {m.ff[lo]:.1f} MiB at P = {lo}, "
-                     f"{m.ff[hi]:.1f} MiB at P = {hi} (4n²/P), peak resident memory per rank {m.rss[lo]:.0f} → "
+        notes.append(f"Strong scaling (Jacobi, {int(s['n'].iloc[0])} patches): F per rank {m.ff[lo]:.1f} MiB at "
+                     f"P = {lo}, {m.ff[hi]:.1f} MiB at P = {hi} (4n²/P), peak resident memory per rank {m.rss[lo]:.0f} → "
                      f"{m.rss[hi]:.0f} MiB; time per iteration {m.t[lo] * 1e3:.3g} → {m.t[hi] * 1e3:.3g} ms.")
     w = sv[(sv["series"] == "weak")] if not sv.empty else sv
     if len(w):
-        m = w.groupby("ranks").agg(n=("n", "first"), ff=("F per rank MiB", "max"), t=("times_s.per_iteration", "median"))
+        m = w.groupby("ranks").agg(n=("n", "first"), ff=("F per rank MiB", "max"),
+                                   t=("times_s.per_iteration", "median"))
         notes.append("Weak scaling (Jacobi, n²/P about constant): " + "; ".join(
             f"P = {p}: {int(r.n)} patches, F per rank {r.ff:.1f} MiB, {r.t * 1e3:.3g} ms/iteration"
             for p, r in m.iterrows()) + ".")

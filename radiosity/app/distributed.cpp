@@ -34,8 +34,8 @@ void require_memory_per_rank(double limit, const NeedsAt& needs, int ranks, cons
   for (int p = ranks + 1; p <= 4096 && !fits; ++p)
     if (largest(needs(p)).total() <= limit) fits = p;
   if (fits)
-    msg += "on " + std::to_string(fits) + " ranks each holds at most " + hpcgi::format_bytes(largest(needs(fits)).total()) +
-           ": " + "mpirun -np " + std::to_string(fits) + " " + how;
+    msg += "on " + std::to_string(fits) + " ranks each holds at most " +
+           hpcgi::format_bytes(largest(needs(fits)).total()) + ": mpirun -np " + std::to_string(fits) + " " + how;
   else
     msg += "no number of ranks up to 4096 fits (the vectors alone are " + hpcgi::format_bytes(worst.other_bytes) + ")";
   throw hpcgi::Agreed<hpcgi::UsageError>(msg);

@@ -29,9 +29,9 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a) {
 
 void add_memory_option(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--max-memory-per-rank", a.max_memory_per_rank,
-                  "refuse (exit 2, nothing written) a run in which one process, or one MPI rank, would hold more than "
-                  "BYTES (e.g. 64M, 1.5G): its rows of the form factors, vectors and buffers; the message says how many "
-                  "ranks would do")
+                  "refuse (exit 2, nothing written) a run in which one process, or one MPI rank, would hold more "
+                  "than BYTES (e.g. 64M, 1.5G): its rows of the form factors, vectors and buffers; the message says "
+                  "how many ranks would do")
       ->check(hpcgi::byte_size());
 }
 

@@ -247,8 +247,10 @@ int run_solve(const SolveArgs& a) {
   // dense copy, the vectors; a CSR copy is checked once its size is known (the kept values are counted after
   // loading). --max-memory-per-rank is checked first, the same on every rank (the split depends on the mesh only).
   const bool dense16 = a.storage == "dense" && values != FFValues::float32;
-  std::vector<uint64_t> row_work;
-  for (const Patch& p : m.patches) row_work.push_back(row_needed(p.reflectivity) ? n : 1);
+  // On MPI ranks, rows in blocks of equal count: a rank holds every row of its block, dense, so equal counts balance
+  // the memory, which decides how many ranks a scene needs. Rows of reflectivity 0 are held but not computed; the
+  // compute can be off balance by at most their share (lights, usually a few percent).
+  const std::vector<uint64_t> row_work(n, 1);
   auto split = [&](int p) { return dist ? dist::split_by_work(row_work, p) : std::vector<size_t>{0, n}; };
   const NeedsAt needs = [&](int p) {
     const std::vector<size_t> b = dist::split_by_work(row_work, p);  // p > 1 for a serial run: what mpi would hold
@@ -483,7 +485,7 @@ int run_solve(const SolveArgs& a) {
   if (dist) {
     rec["params"]["ranks"] = ranks;
     nlohmann::json mpi = mpi_section(needs(ranks), limit);  // collective
-    mpi["split"] = "rows in blocks of equal work: n per reflecting row, 1 per row of reflectivity 0";
+    mpi["split"] = "rows in blocks of equal count (the memory of F per rank)";
     mpi["file"] = "each rank reads its rows of the one form-factor file (MPI-IO), the checksum chained over the ranks";
     mpi["rank_read_s"] = hpcgi::comm::gather(rank_read_s);
     mpi["rank_checksum_s"] = hpcgi::comm::gather(rank_checksum_s);

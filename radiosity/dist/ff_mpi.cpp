@@ -154,7 +154,8 @@ FormFactorRows load_form_factor_rows(const std::string& path, const Mesh& expect
   st.io_s = t.seconds();
   MPI_File_close(&fh);
   hpcgi::comm::agreed([&] {
-    if (!error.empty()) throw hpcgi::UsageError("cannot read " + file + " on rank " + std::to_string(rank) + ": " + error);
+    if (!error.empty())
+      throw hpcgi::UsageError("cannot read " + file + " on rank " + std::to_string(rank) + ": " + error);
   });
 
   const uint64_t sum = chained_checksum(rows.values.data(), rows.values.size() * sizeof(float), st);

@@ -2,8 +2,6 @@
 
 #include <stdexcept>
 
-#include "radiosity/solve/ff_matrix.hpp"
-
 namespace radiosity::dist {
 
 std::vector<size_t> split_by_work(const std::vector<uint64_t>& work, int parts) {
@@ -23,13 +21,6 @@ std::vector<size_t> split_by_work(const std::vector<uint64_t>& work, int parts) 
     bounds[size_t(r) + 1] = i;
   }
   return bounds;
-}
-
-std::vector<uint64_t> solve_row_work(const std::vector<Rgb>& reflectivity) {
-  const uint64_t n = reflectivity.size();
-  std::vector<uint64_t> work(reflectivity.size());
-  for (size_t i = 0; i < work.size(); ++i) work[i] = row_needed(reflectivity[i]) ? n : 1;
-  return work;
 }
 
 }  // namespace radiosity::dist

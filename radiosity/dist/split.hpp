@@ -1,13 +1,12 @@
 // Row blocks for MPI ranks (as the Poisson solver splits its grid): rank r holds rows [bounds[r], bounds[r+1]),
 // contiguous and in order, so that a rank's rows are one range of the form-factor file and its blocks of a vector
-// are one piece of an MPI_Allgatherv. The blocks are balanced by an estimate of each row's work, not by count: a
-// hemicube row costs more where more patches lie in front of it, a solver's row nothing where its reflectivity is 0.
+// are one piece of an MPI_Allgatherv. The blocks are balanced by an estimate of each row's work (a hemicube row costs
+// more where more patches lie in front of it), or by count with equal work (a solver's rank holds its rows of F
+// dense: equal counts balance the memory).
 #pragma once
 #include <cstddef>
 #include <cstdint>
 #include <vector>
-
-#include "radiosity/mesh.hpp"
 
 namespace radiosity::dist {
 
@@ -24,9 +23,5 @@ struct RowBlock {
 inline RowBlock block_of(const std::vector<size_t>& bounds, int rank) {
   return {bounds[size_t(rank)], bounds[size_t(rank) + 1]};
 }
-
-// A solver's work per row: n (the row's n form factors, read every product) where the patch reflects, 1 where its
-// reflectivity is 0 in every channel (the product skips the row: B_i = E_i).
-std::vector<uint64_t> solve_row_work(const std::vector<Rgb>& reflectivity);
 
 }  // namespace radiosity::dist

@@ -219,7 +219,8 @@ class MpiKernels final : public Kernels<T> {
 template <class T>
 std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, int vectors) {
   if (!hpcgi::comm::active())
-    throw hpcgi::UsageError("backend mpi needs MPI: run bin/radiosity under mpirun (it initialises MPI for --backend mpi)");
+    throw hpcgi::UsageError("backend mpi needs MPI initialised: run bin/radiosity (which does so for --backend mpi), "
+                            "under mpirun -np P");
   if (sys.stored.n) throw hpcgi::UsageError("backend mpi reads dense float32 form factors only");
   if (solve_one_channel(sys, cfg)) return std::make_unique<MpiKernels<T, Grey>>(sys, vectors, cfg.threads);
   if (cfg.layout == "soa") return std::make_unique<MpiKernels<T, Soa>>(sys, vectors, cfg.threads);

@@ -112,7 +112,9 @@ Rgb residual_squares(const System& sys, const std::vector<Rgb>& B) {
       switch (F.values) {
         case FFValues::float32: s = row_product(F, [&](size_t k) { return f32[k]; }, local, B); break;
         case FFValues::float16: s = row_product(F, [&](size_t k) { return half_to_float(u16[k]); }, local, B); break;
-        case FFValues::bfloat16: s = row_product(F, [&](size_t k) { return bfloat16_to_float(u16[k]); }, local, B); break;
+        case FFValues::bfloat16:
+          s = row_product(F, [&](size_t k) { return bfloat16_to_float(u16[k]); }, local, B);
+          break;
       }
     }
     const Rgb& e = sys.emission[i];

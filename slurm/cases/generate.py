@@ -209,9 +209,9 @@ def extreme_boxes():
 
 
 # Radiosity across nodes (issue 9): form factors and solves on MPI ranks, each rank its block of rows of F.
-# strong: one scene, P = 1 .. ranks; weak: patches n growing as √P, so that a rank's share of the dense F (4n²/P bytes,
-# the memory that decides how many nodes a scene needs) stays about the same: --divide values picked from the patch
-# counts `bin/radiosity info` gives (noted beside each). large: a scene one rank may not hold
+# strong: one scene, P = 1 .. ranks; weak: patches n growing as √P, so that a rank's share of the dense F (4n²/P
+# bytes, the memory that decides how many nodes a scene needs) stays about the same: --divide values picked from
+# the patch counts `bin/radiosity info` gives (noted beside each). large: a scene one rank may not hold
 # (--max-memory-per-rank), its form factors and solve on enough ranks; in the paper preset a scene too large for one
 # node's memory, across 4 nodes (slurm/mpi-large.sbatch says how its size was chosen).
 MPI = {

@@ -62,7 +62,8 @@ def record(p):
 
 
 def radiosities(path):
-    return np.array([[float(c) for c in t.get("radiosity").split(",")] for t in ET.parse(path).getroot().iter("triangle")])
+    tris = ET.parse(path).getroot().iter("triangle")
+    return np.array([[float(c) for c in t.get("radiosity").split(",")] for t in tris])
 
 
 def rel_diff(a, b):

@@ -11,9 +11,7 @@
 
 #include "radiosity/dist/split.hpp"
 
-using radiosity::Rgb;
 using radiosity::dist::block_of;
-using radiosity::dist::solve_row_work;
 using radiosity::dist::split_by_work;
 
 namespace {
@@ -96,8 +94,3 @@ TEST(Split, HugeWorkDoesNotOverflow) {
 }
 
 TEST(Split, NoPartsIsRefused) { EXPECT_THROW(split_by_work({1}, 0), std::invalid_argument); }
-
-TEST(Split, SolveWorkIsNPerReflectingRowAndOnePerSkippedRow) {
-  const std::vector<Rgb> rho = {{0.5, 0.5, 0.5}, {0, 0, 0}, {0, 0.1, 0}};
-  EXPECT_EQ(solve_row_work(rho), (std::vector<uint64_t>{3, 1, 3}));
-}
