@@ -244,6 +244,7 @@ def mpi_experiments(preset, p):
 
     strong = SCENES[m["scene"]][0]
     top = max(m["ranks"])
+    even = min(top, max(2, p["cores"]))
     e = {}
     e["mpi-formfactors"] = ("Radiosity across nodes: form factors on P MPI ranks, one file written together (MPI-IO); "
                             f"strong scaling on {strong}, weak scaling (patches grow as sqrt(P))", 1, [
@@ -251,8 +252,9 @@ def mpi_experiments(preset, p):
           for r in m["ranks"]),
         *(f"ranks={r} bin/radiosity formfactors {scene(s, d)} -o {ff(f'weak-P{r}')} {hemi}"
           for r, s, d in m["weak"]),
-        # the same rows in blocks of equal count, to see what the split by estimated work buys
-        f"ranks={top} bin/radiosity formfactors {scene(m['scene'], 1.0)} -o {ff(f'{strong}-P{top}-rows')} {hemi} "
+        # the same rows in blocks of equal count, to see what the split by estimated work buys (at as many ranks as
+        # the preset's node has cores, so that the ranks do not share cores)
+        f"ranks={even} bin/radiosity formfactors {scene(m['scene'], 1.0)} -o {ff(f'{strong}-P{even}-rows')} {hemi} "
         f"--split rows"])
     solve = f"--tol 1e-6 --threads {m['threads']}"
     # The solves read the file written by the most ranks: a file does not depend on who wrote it.
