@@ -162,8 +162,16 @@ def plot(ff, sv, preset):
     ax.set_ylabel("MiB per rank (largest rank)")
     ax.set_title("memory per rank")
     ax.legend(fontsize=7)
+    both = pd.concat([x for x in (ff, sv) if not x.empty])
+    cores = int(both["provenance.cpus_online"].min()) if "provenance.cpus_online" in both.columns else 0
+    ranks = sorted(set(both["ranks"]))
     for a in axes:
         a.grid(alpha=0.3)
+        a.set_xticks(ranks)
+        if cores and cores < max(ranks):  # past here ranks share cores: their times measure oversubscription
+            a.axvline(cores + 0.5, ls=":", color="grey")
+            a.text(cores + 0.55, 0.97, "ranks > cores", transform=a.get_xaxis_transform(), fontsize=7, va="top",
+                   color="grey")
     fig.suptitle(f"Radiosity across MPI ranks ({preset})")
     fig.tight_layout()
     fig.savefig(PLOTS / f"mpi_radiosity_{preset}.png", dpi=110)
