@@ -35,16 +35,20 @@ CXXFLAGS += -std=c++17 $(OPT) $(SAN_FLAGS) -fopenmp -Wall -Wextra -MMD -MP
 NVCCFLAGS ?= -O3 -std=c++17 -arch=sm_$(CUDA_ARCH) -Xcompiler -fopenmp
 LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
-# Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX).
-MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp
+# Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
+# one-process version of its collectives, and the files that only exist for MPI are left out.
+MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi.cpp radiosity/dist/ff_mpi.cpp
+MPI_ONLY    := radiosity/solve/mpi.cpp radiosity/dist/ff_mpi.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
-MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp
+MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp
 MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
-MOD_solve      := $(wildcard radiosity/solve/*.cpp) $(if $(HAVE_CUDA),$(wildcard radiosity/solve/*.cu))
+MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/solve/*.cpp)) \
+                  $(if $(HAVE_CUDA),$(wildcard radiosity/solve/*.cu))
+MOD_dist       := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/dist/*.cpp))
 MOD_render     := $(wildcard radiosity/render/*.cpp)
 MOD_app        := $(wildcard radiosity/app/*.cpp)
 SUITE_poisson    := common poisson
@@ -54,6 +58,7 @@ SUITE_solve      := common solve
 SUITE_common     := common
 SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
+SUITE_dist       := common dist formfactor
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
@@ -63,12 +68,15 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 PRESET ?= quick
 RUNNER ?= local
-# The accuracy sweeps and extremes (issue 6) add about four minutes to the quick preset on 2 cores.
+# The accuracy sweeps and extremes (issue 6) add about four minutes to the quick preset on 2 cores, the MPI
+# experiments (issue 9) about 70 seconds.
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
-               accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes
+               accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
+               mpi-radiosity mpi-large
 .PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench FORCE
 all: $(PROGRAMS)
-	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi is not built")
+	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
+	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
 	@$(if $(HAVE_CUDA),,echo "make: CUDA left out: $(if $(SANITIZE),nvcc's objects cannot be sanitized,no '$(NVCC)' on PATH (set NVCC=...)); backends cublas1, cublas2, cuda are not built")
 
 help:
@@ -114,7 +122,7 @@ $(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 

@@ -4,10 +4,11 @@ import os
 
 import pandas as pd
 
-from analysis import accuracy, radiosity_tables, table41
+from analysis import accuracy, mpi_radiosity, radiosity_tables, table41
 from analysis.records import PLOTS, REPORT, ROOT, TABLES, load
 
-EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42")
+EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
+               "mpi-radiosity", "mpi-large")
 
 
 def provenance(preset):
@@ -153,7 +154,8 @@ def write(preset):
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
             "### Figure 4.2", "", image("figure42", preset, "Figure 4.2"), "",
-            *accuracy.report_section(preset, include, image),
+            *accuracy.report_section(preset, include, image), "",
+            *mpi_radiosity.report_section(preset, include, image),
             "## Performance: the bandwidth limit and the peers (`make bench`)", "", include("bench", preset)]
     path = REPORT / f"REPORT-{preset}.md"
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,9 @@
 #include <cstdio>
 #include <exception>
 
+#include "common/comm.hpp"
 #include "common/errors.hpp"
+#include "common/memory.hpp"
 
 namespace hpcgi {
 
@@ -24,18 +26,45 @@ bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code) {
   return true;
 }
 
+CLI::Validator byte_size() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        try {
+          parse_bytes(s);
+        } catch (const UsageError& e) {
+          return e.what();
+        }
+        return {};
+      },
+      "BYTES");
+}
+
+namespace {
+
+// One line on stderr. Of several MPI ranks, an error they agreed on is reported by rank 0 alone; an error of one
+// rank is reported with its rank and ends every rank, as the others may be waiting for it in a collective.
+int report(const std::string& program, const std::exception& e, const char* kind, int status) {
+  const bool agreed = dynamic_cast<const AgreedError*>(&e) != nullptr;
+  if (comm::size() > 1 && !agreed) {
+    std::fprintf(stderr, "%s: rank %d of %d: %s%s\n", program.c_str(), comm::rank(), comm::size(), kind, e.what());
+    std::fflush(stderr);
+    comm::abort(status);
+  }
+  if (comm::root()) std::fprintf(stderr, "%s: %s%s\n", program.c_str(), kind, e.what());
+  return status;
+}
+
+}  // namespace
+
 int run_main(const std::string& program, const std::function<int()>& body) {
   try {
     return body();
   } catch (const UsageError& e) {
-    std::fprintf(stderr, "%s: %s\n", program.c_str(), e.what());
-    return kExitUsage;
+    return report(program, e, "", kExitUsage);
   } catch (const NumericalError& e) {
-    std::fprintf(stderr, "%s: numerical failure: %s\n", program.c_str(), e.what());
-    return kExitNumerical;
+    return report(program, e, "numerical failure: ", kExitNumerical);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: error: %s\n", program.c_str(), e.what());
-    return kExitRuntime;
+    return report(program, e, "error: ", kExitRuntime);
   }
 }
 

@@ -34,4 +34,7 @@ inline CLI::Validator positive_finite() {
       "POSITIVE");
 }
 
+// A validator for sizes in bytes ("67108864", "64M", "1.5G": common/memory.hpp's parse_bytes).
+CLI::Validator byte_size();
+
 }  // namespace hpcgi

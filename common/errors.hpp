@@ -22,4 +22,15 @@ struct NumericalError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// An error that every rank of an MPI run raised alike, having agreed on it (common/comm.hpp): rank 0 alone reports
+// it and every rank exits with its status. Any other error on one rank of several ends the whole run (MPI_Abort),
+// since the other ranks would wait for that rank for ever.
+struct AgreedError {
+  virtual ~AgreedError() = default;
+};
+template <class E>
+struct Agreed : E, AgreedError {
+  using E::E;
+};
+
 }  // namespace hpcgi

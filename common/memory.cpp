@@ -2,7 +2,10 @@
 
 #include <unistd.h>
 
+#include <cctype>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -18,6 +21,46 @@ double available_memory_bytes() {
   while (in >> key >> kb >> unit)
     if (key == "MemAvailable:") return kb * 1024.0;
   return static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGE_SIZE));
+}
+
+double parse_bytes(const std::string& text) {
+  const std::string bad = "'" + text + "' is not a size in bytes (e.g. 67108864, 64M, 1.5G)";
+  size_t pos = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &pos);
+  } catch (...) {
+    throw UsageError(bad);
+  }
+  std::string unit = text.substr(pos);
+  if (unit.size() == 3 && unit.compare(1, 2, "iB") == 0)
+    unit.resize(1);
+  else if (unit.size() == 2 && unit[1] == 'B')
+    unit.resize(1);
+  else if (unit == "B")
+    unit.clear();
+  double scale = 1;
+  if (unit.size() > 1) throw UsageError(bad);
+  if (unit.size() == 1) {
+    const char* units = "KMGTP";
+    const char* at = std::strchr(units, std::toupper(static_cast<unsigned char>(unit[0])));
+    if (!at || unit[0] == 0) throw UsageError(bad);
+    scale = std::ldexp(1.0, 10 * int(at - units + 1));
+  }
+  if (!std::isfinite(v) || v <= 0) throw UsageError(bad + ": it must be > 0");
+  return v * scale;
+}
+
+std::string format_bytes(double bytes) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
+  int u = 0;
+  while (u < 5 && std::fabs(bytes) >= 1024) {
+    bytes /= 1024;
+    ++u;
+  }
+  char buf[48];
+  std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
+  return buf;
 }
 
 void require_host_memory(const std::string& who, double bytes) {

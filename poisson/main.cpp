@@ -15,6 +15,7 @@
 
 #include "common/cli.hpp"
 #include "common/errors.hpp"
+#include "common/launcher.hpp"
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "poisson/cg.hpp"
@@ -45,14 +46,6 @@ void write_solution(const std::string& path, const std::vector<double>& x) {
     if (!out) throw std::runtime_error("cannot write " + tmp);
   }
   std::filesystem::rename(tmp, path);
-}
-
-bool launched_by_mpirun_with_many_ranks() {
-  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"}) {
-    const char* s = std::getenv(v);
-    if (s && std::atoi(s) > 1) return true;
-  }
-  return false;
 }
 
 template <class T>
@@ -173,7 +166,7 @@ int main(int argc, char** argv) {
   return hpcgi::run_main("poisson", [&]() -> int {
     a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision) : a.variant;
     const bool mpi = a.cfg.backend == "mpi";
-    if (!mpi && launched_by_mpirun_with_many_ranks())
+    if (!mpi && hpcgi::launched_by_mpirun_with_many_ranks())
       throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
     if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);
     else if (mpi && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);

@@ -1,14 +1,19 @@
 // bin/radiosity: the radiosity pipeline of the report, one step per subcommand.
 //   info         load and subdivide a scene, print what it holds and what a run will need
-//   formfactors  compute the form factors by the hemicube, once, into a file named for the mesh
+//   formfactors  compute the form factors by the hemicube, once, into a file named for the mesh (under mpirun: each
+//                rank its block of rows, one file written together)
 //   solve        solve B = E + ρ ⊙ F B with a method, layout, backend and precision; write the scene, pictures and
-//                a record; check the answer against the serial float64 result
+//                a record; check the answer against the serial float64 result (--backend mpi: on MPI ranks)
 #include <omp.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "common/cli.hpp"
+#include "common/comm.hpp"
+#include "common/errors.hpp"
+#include "common/launcher.hpp"
 #include "common/record.hpp"
 #include "radiosity/app/commands.hpp"
 
@@ -16,7 +21,11 @@ int main(int argc, char** argv) {
   CLI::App app{"Radiosity (report HPCF-2014-15): RRV scenes, hemicube form factors, Jacobi and BiCG-STAB solvers.\n"
                "Typical use:\n"
                "  bin/radiosity formfactors radiosity/scenes/scene1.xml -o scene1.ff\n"
-               "  bin/radiosity solve radiosity/scenes/scene1.xml --ff scene1.ff --png scene1.png",
+               "  bin/radiosity solve radiosity/scenes/scene1.xml --ff scene1.ff --png scene1.png\n"
+               "Across MPI ranks (one thread per rank unless --threads or OMP_NUM_THREADS says otherwise):\n"
+               "  mpirun -np 4 bin/radiosity formfactors radiosity/scenes/scene2.xml -o scene2.ff\n"
+               "  mpirun -np 4 bin/radiosity solve radiosity/scenes/scene2.xml --ff scene2.ff --backend mpi\n"
+               "A form-factor file is the same whoever wrote it: any number of ranks, or one process, reads it.",
                "radiosity"};
   app.require_subcommand(1);
   radiosity::app::InfoArgs info;
@@ -28,9 +37,32 @@ int main(int argc, char** argv) {
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
+
+  // MPI: the form factors under any MPI launcher (each rank its rows), a solve with --backend mpi. Everything else
+  // runs as one process and refuses to be one of several ranks, which would each do the whole run.
+  const bool ff_cmd = app.got_subcommand("formfactors"), solve_cmd = app.got_subcommand("solve");
+  const bool mpi_solve = solve_cmd && solve.cfg.backend == "mpi";
+  const bool launched = hpcgi::launcher_world_size() > 0;
+  const bool want_mpi = hpcgi::comm::built() && ((ff_cmd && launched) || mpi_solve);
+  int status = hpcgi::run_main("radiosity", [&]() -> int {
+    if (hpcgi::launched_by_mpirun_with_many_ranks() && !want_mpi) {
+      if (!hpcgi::comm::built() && (ff_cmd || mpi_solve))
+        throw hpcgi::UsageError("this bin/radiosity was built without MPI (no mpicxx): it runs as one process");
+      throw hpcgi::UsageError(solve_cmd ? "backend '" + solve.cfg.backend + "' runs as one process; use --backend mpi "
+                                          "under mpirun"
+                                        : std::string("'info' runs as one process; run it without mpirun"));
+    }
+    return 0;
+  });
+  if (status != 0) return status;
+  // One OpenMP thread per rank by default, as bin/poisson does: P ranks on a node would otherwise start P times
+  // as many threads as it has cores.
+  const int* threads = ff_cmd ? &ff.threads : solve_cmd ? &solve.threads : &info.threads;
+  if (want_mpi && *threads == 0 && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
+  hpcgi::comm::Session session(want_mpi);  // MPI_Finalize when main returns, after errors are reported
   return hpcgi::run_main("radiosity", [&]() -> int {
-    if (app.got_subcommand("info")) return radiosity::app::run_info(info);
-    if (app.got_subcommand("formfactors")) return radiosity::app::run_formfactors(ff);
-    return radiosity::app::run_solve(solve);
+    if (ff_cmd) return radiosity::app::run_formfactors(ff);
+    if (solve_cmd) return radiosity::app::run_solve(solve);
+    return radiosity::app::run_info(info);
   });
 }

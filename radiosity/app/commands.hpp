@@ -18,8 +18,12 @@ struct SceneArgs {
   std::string record_path;
   bool json = false;
   bool quiet = false;
+  std::string max_memory_per_rank;  // formfactors, solve: what one process (MPI rank) may hold, e.g. 64M
+  double memory_limit() const;      // its bytes, 0 when not given
 };
 void add_scene_options(CLI::App* cmd, SceneArgs& a);
+// --max-memory-per-rank, for the subcommands that hold form factors.
+void add_memory_option(CLI::App* cmd, SceneArgs& a);
 // Loads and subdivides the scene (sets the thread count first); prints nothing.
 Mesh load_scene(const SceneArgs& a, double* seconds);
 
@@ -31,6 +35,7 @@ struct FormFactorArgs : SceneArgs {
   std::string out;
   HemicubeParams hemicube;
   std::string weights = "exact";
+  std::string split = "work";  // under MPI: rows in blocks of equal estimated work, or of equal count ("rows")
 };
 void add_formfactors(CLI::App& app, FormFactorArgs& a);
 int run_formfactors(const FormFactorArgs& a);

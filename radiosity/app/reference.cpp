@@ -11,7 +11,7 @@ namespace radiosity::app {
 ErrorReference converged_reference(const System& sys, const std::string& of) {
   hpcgi::Timer t;
   SolveConfig cfg;
-  cfg.backend = "openmp";
+  cfg.backend = holds_all_rows(sys) ? "openmp" : "mpi";  // an MPI rank's system is solved by the same ranks
   cfg.layout = "aos";
   cfg.precision = "double";
   cfg.method = "bicgstab";

@@ -7,6 +7,7 @@
 
 #include "common/cli.hpp"
 #include "common/errors.hpp"
+#include "common/memory.hpp"
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
@@ -24,6 +25,18 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
   cmd->add_flag("--json", a.json, "print the record on stdout");
   cmd->add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+}
+
+void add_memory_option(CLI::App* cmd, SceneArgs& a) {
+  cmd->add_option("--max-memory-per-rank", a.max_memory_per_rank,
+                  "refuse (exit 2, nothing written) a run in which one process, or one MPI rank, would hold more "
+                  "than BYTES (e.g. 64M, 1.5G): its rows of the form factors, vectors and buffers; the message says "
+                  "how many ranks would do")
+      ->check(hpcgi::byte_size());
+}
+
+double SceneArgs::memory_limit() const {
+  return max_memory_per_rank.empty() ? 0.0 : hpcgi::parse_bytes(max_memory_per_rank);
 }
 
 Mesh load_scene(const SceneArgs& a, double* seconds) {

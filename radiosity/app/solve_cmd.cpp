@@ -1,22 +1,25 @@
 // `bin/radiosity solve`: one solve of a scene whose form factors are in a file, checked against the float64
 // reference, with the scene, pictures and a record written on request.
 #include <omp.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <iostream>
 #include <memory>
 #include <set>
 
 #include "common/cli.hpp"
+#include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
+#include "radiosity/app/distributed.hpp"
 #include "radiosity/app/reference.hpp"
+#include "radiosity/dist/split.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/render/camera.hpp"
 #include "radiosity/render/png_writer.hpp"
@@ -24,6 +27,9 @@
 #include "radiosity/scene/rrv_writer.hpp"
 #include "radiosity/solve/ff_matrix.hpp"
 #include "radiosity/solve/mesh_map.hpp"
+#ifdef HAVE_MPI
+#include "radiosity/dist/ff_mpi.hpp"
+#endif
 
 namespace radiosity::app {
 namespace {
@@ -60,7 +66,7 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
   std::vector<Rgb> R;
   if (cfg.steps > 0) {
     SolveConfig ref = cfg;
-    ref.backend = "openmp";
+    ref.backend = holds_all_rows(sys) ? "openmp" : "mpi";  // an MPI rank's system: the same ranks check it
     ref.layout = "aos";
     ref.precision = "double";
     ref.channels = "3";
@@ -99,17 +105,12 @@ std::string gib(double bytes) {
 // double, three channels, twice, and the host's copies of B (a few per run).
 double vector_bytes(size_t n) { return (2 * (7 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
 
-double peak_rss_bytes() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return 1024.0 * double(u.ru_maxrss);  // kilobytes on Linux
-}
-
 }  // namespace
 
 void add_solve(CLI::App& app, SolveArgs& a) {
   CLI::App* cmd = app.add_subcommand("solve", "solve for the radiosity of a scene whose form factors are in a file");
   add_scene_options(cmd, a);
+  add_memory_option(cmd, a);
   cmd->add_option("--ff", a.ff, "form-factor file written by `bin/radiosity formfactors` for this scene")
       ->required();
   cmd->add_option("--method", a.cfg.method, "jacobi | bicgstab")->check(CLI::IsMember({"jacobi", "bicgstab"}))
@@ -184,14 +185,34 @@ int run_solve(const SolveArgs& a) {
   hpcgi::Timer total;
   SolveConfig cfg = a.cfg;
   cfg.threads = a.threads;
-  const auto [width, height] = parse_size(a.size);
-  const SolveBackend& backend = find_backend(cfg.backend);
-  const FFValues values = parse_ff_values(a.ff_precision);
-  if (!backend.any_storage && (a.storage == "csr" || values != FFValues::float32))
-    throw hpcgi::UsageError("backend '" + backend.name + "' reads dense float32 form factors only: --storage csr and "
-                            "--ff-precision float16|bfloat16 run on serial and openmp");
+  // Backend mpi: every rank reads its block of rows of F and the ranks solve together; rank 0 alone prints and
+  // writes (the record, the scene, the pictures). Every check before the first collective runs on every rank alike,
+  // and the ranks agree on its outcome (comm::agreed), so that rank 0 alone reports a refusal.
+  const int ranks = hpcgi::comm::size(), rank = hpcgi::comm::rank();
+  const bool root = hpcgi::comm::root();
+  std::pair<int, int> picture;
+  const SolveBackend* chosen = nullptr;
+  FFValues values = FFValues::float32;
+  double limit = 0;
+  hpcgi::comm::agreed([&] {
+    picture = parse_size(a.size);
+    chosen = &find_backend(cfg.backend);
+    values = parse_ff_values(a.ff_precision);
+    limit = a.memory_limit();
+    if (!chosen->built)  // before anything is read for it
+      throw hpcgi::UsageError("solver backend '" + chosen->name + "' is not available: " + chosen->why_not);
+    if (chosen->distributed && !a.reference_ff.empty())
+      throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
+                              "--ff (solve the finer mesh with serial or openmp)");
+    if (!chosen->any_storage && (a.storage == "csr" || values != FFValues::float32))
+      throw hpcgi::UsageError("backend '" + chosen->name + "' reads dense float32 form factors only: --storage csr "
+                              "and --ff-precision float16|bfloat16 run on serial and openmp");
+  });
+  const auto [width, height] = picture;
+  const SolveBackend& backend = *chosen;
+  const bool dist = backend.distributed;
   double load_s = 0;
-  const Mesh m = load_scene(a, &load_s);
+  const Mesh m = hpcgi::comm::agreed([&] { return load_scene(a, &load_s); });
   const size_t n = m.size();
   const double n2 = double(n) * double(n);
   const std::string patches = std::to_string(n) + " patches";
@@ -222,38 +243,90 @@ int run_solve(const SolveArgs& a) {
     have_ref = true;
   }
 
-  // Memory: the file's dense float32 values (always read whole), a 16-bit dense copy, the vectors; a CSR copy is
-  // checked once its size is known (the kept values are counted after loading).
+  // Memory: the file's dense float32 values (always read whole; on MPI ranks each its block of rows), a 16-bit
+  // dense copy, the vectors; a CSR copy is checked once its size is known (the kept values are counted after
+  // loading). --max-memory-per-rank is checked first, the same on every rank (the split depends on the mesh only).
   const bool dense16 = a.storage == "dense" && values != FFValues::float32;
-  const double file_bytes = 4 * n2, copy_bytes = dense16 ? 2 * n2 : 0;
-  hpcgi::require_host_memory("a solve of " + patches + " (the form-factor file's dense float32 values " +
-                                 gib(file_bytes) + (dense16 ? ", their 16-bit copy " + gib(copy_bytes) : "") +
-                                 ", vectors " + gib(vector_bytes(n)) + ")",
-                             file_bytes + copy_bytes + vector_bytes(n));
+  // On MPI ranks, rows in blocks of equal count: a rank holds every row of its block, dense, so equal counts balance
+  // the memory, which decides how many ranks a scene needs. Rows of reflectivity 0 are held but not computed; the
+  // compute can be off balance by at most their share (lights, usually a few percent).
+  const std::vector<uint64_t> row_work(n, 1);
+  auto split = [&](int p) { return dist ? dist::split_by_work(row_work, p) : std::vector<size_t>{0, n}; };
+  const NeedsAt needs = [&](int p) {
+    const std::vector<size_t> b = dist::split_by_work(row_work, p);  // p > 1 for a serial run: what mpi would hold
+    std::vector<RankNeed> v;
+    for (int r = 0; r < p; ++r) {
+      const size_t rows = b[r + 1] - b[r];
+      v.push_back({rows, (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n), vector_bytes(n)});
+    }
+    return v;
+  };
+  const std::vector<size_t> bounds = split(ranks);
+  const dist::RowBlock block = dist::block_of(bounds, dist ? rank : 0);
+  require_memory_per_rank(limit, needs, ranks, "a solve of " + patches,
+                          "bin/radiosity solve ... --backend mpi");
+  const double file_bytes = 4.0 * double(block.rows()) * double(n), copy_bytes = dense16 ? 2 * n2 : 0;
+  hpcgi::comm::agreed([&] {
+    hpcgi::require_host_memory("a solve of " + patches + " (the form-factor file's dense float32 values " +
+                                   (dist ? "of rank " + std::to_string(rank) + "'s " + std::to_string(block.rows()) +
+                                               " rows "
+                                         : std::string()) +
+                                   gib(file_bytes) + (dense16 ? ", their 16-bit copy " + gib(copy_bytes) : "") +
+                                   ", vectors " + gib(vector_bytes(n)) + ")",
+                               file_bytes + copy_bytes + vector_bytes(n));
+  });
   hpcgi::Timer t;
-  FormFactors ff = load_form_factors(a.ff, m);
+  FormFactorRows ff;
+  double rank_read_s = 0, rank_checksum_s = 0, rank_chain_s = 0;
+  if (dist) {
+#ifdef HAVE_MPI
+    dist::FileStats st;
+    ff = dist::load_form_factor_rows(a.ff, m, block, &st);
+    rank_read_s = st.io_s;
+    rank_checksum_s = st.checksum_s;
+    rank_chain_s = st.chain_s;
+#endif
+  } else {
+    FormFactors whole = load_form_factors(a.ff, m);
+    ff.n = whole.n;
+    ff.row_begin = 0;
+    ff.row_end = whole.n;
+    ff.params = whole.params;
+    ff.values = std::move(whole.values);
+  }
   const double ff_load_s = t.seconds();
-  System sys = make_system(m, ff.values.data());
+  static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
+  System sys = make_system(m, ff.values.empty() ? &kNoRows : ff.values.data());
+  if (dist) {
+    sys.rows_begin = block.begin;
+    sys.rows_end = block.end;
+  }
 
   // The run's form factors: threshold, storage and precision. The default error reference is solved on the
   // file's values before they are thresholded or rounded (or after the run, when they are not).
   t.reset();
-  const size_t kept = count_kept(ff.values.data(), n, sys.reflectivity, a.threshold);
-  const bool dropped = a.threshold > 0 && kept != count_kept(ff.values.data(), n, sys.reflectivity, 0);
+  // Counted over this process's rows (on MPI ranks: summed over the ranks).
+  auto kept_at = [&](double threshold) {
+    uint64_t k = count_kept(sys.F, n, sys.reflectivity, threshold, block.begin, block.end);
+    hpcgi::comm::sum(&k, 1);
+    return size_t(k);
+  };
+  const size_t kept = kept_at(a.threshold);
+  const bool dropped = a.threshold > 0 && kept != kept_at(0);
   FFStorage storage = a.storage == "auto" ? (backend.any_storage ? cheaper_storage(values, n, kept) : FFStorage::dense)
                                           : parse_ff_storage(a.storage);
   const bool as_file = storage == FFStorage::dense && values == FFValues::float32;
   const bool same_matrix = !have_ref && values == FFValues::float32 && !dropped;
   double ref_in_build_s = 0;  // the reference solved here is no part of building the run's form factors
   if (a.verify && !have_ref && !same_matrix) {
-    ref = converged_reference(sys, "");
+    ref = hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
     ref_in_build_s = ref.seconds;
     have_ref = true;
   }
   std::unique_ptr<FormFactorMatrix> matrix;
-  double matrix_storage_bytes = file_bytes;
+  double matrix_storage_bytes = 4 * n2;  // all ranks together
   if (as_file) {
-    if (dropped) apply_threshold(ff.values.data(), n, a.threshold);
+    if (dropped) apply_threshold(ff.values.data(), n, a.threshold, block.rows());
   } else {
     const double bytes = ff_storage_bytes(storage, values, n, kept);
     hpcgi::require_host_memory("the " + std::string(to_string(storage)) + " " + to_string(values) +
@@ -271,13 +344,13 @@ int run_solve(const SolveArgs& a) {
   }
   size_t rows_without_reflection = 0;
   for (const Rgb& rho : sys.reflectivity) rows_without_reflection += !row_needed(rho);
-  // Only the backends that read any storage skip those rows; the others compute them.
-  const size_t skipped_rows = backend.any_storage ? rows_without_reflection : 0;
+  // The backends that read any storage skip those rows, and mpi (the same product); the others compute them.
+  const size_t skipped_rows = backend.any_storage || backend.distributed ? rows_without_reflection : 0;
   if (cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
     hpcgi::require_host_memory("backend original's cache lines for " + patches,
                                16.0 * (double(kept) + double(rows_without_reflection) * double(n)));
   const double ff_build_s = t.seconds() - ref_in_build_s;
-  const Camera cam = parse_view(a.view, m);
+  const Camera cam = hpcgi::comm::agreed([&] { return parse_view(a.view, m); });
   RenderOptions ropt;
   ropt.exposure = a.exposure;
 
@@ -285,27 +358,38 @@ int run_solve(const SolveArgs& a) {
   const std::string prefix = a.snapshot_prefix.empty() ? "snapshot" : a.snapshot_prefix;
   std::vector<std::string> snapshot_files;
   IterationCallback cb;
+  // On every rank (fetching B is collective), drawn by rank 0. A failure to write is kept until the solve ends: a
+  // rank that left the solve early would leave the others waiting in its collectives.
+  std::exception_ptr snapshot_error;
   if (!snaps.empty())
     cb = [&](long it, const std::vector<Rgb>& B) {
       if (!snaps.count(it)) return;
       const std::string f = prefix + "_iter" + std::to_string(it) + ".png";
-      write_png(f, render(m, B, cam, width, height, ropt));
+      try {
+        if (root && !snapshot_error) write_png(f, render(m, B, cam, width, height, ropt));
+      } catch (...) {
+        snapshot_error = std::current_exception();
+      }
       snapshot_files.push_back(f);
     };
-  const SolveResult res = solve(sys, cfg, cb);
+  // Agreed: a refused configuration is refused by every rank before any collective (solve checks first).
+  const SolveResult res = hpcgi::comm::agreed([&] { return solve(sys, cfg, cb); });
+  hpcgi::comm::agreed([&] {
+    if (snapshot_error) std::rethrow_exception(snapshot_error);
+  });
   const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
                       res.status == SolveStatus::divergent;
   Verification v;
   double error = 0;
   if (a.verify && !failed) {
-    if (!have_ref) ref = converged_reference(sys, "");
+    if (!have_ref) ref = hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
     if (ref.of.empty())
       ref.of = a.ff + (same_matrix ? "" : " before threshold and rounding") + " (" + patches + ")";
-    v = verify(sys, cfg, res, same_matrix ? &ref : nullptr);
+    v = hpcgi::comm::agreed([&] { return verify(sys, cfg, res, same_matrix ? &ref : nullptr); });
     error = max_rel_diff(res.B, ref.B);
   }
   const double passes_bytes = res.matrix_bytes * static_cast<double>(res.matrix_passes);
-  const bool gpu = !res.backend_info.empty();  // the GPU backends describe their GPU
+  const bool gpu = res.backend_info.count("gpu") > 0;  // the GPU backends describe their GPU
   const bool hybrid = cfg.backend == "hybrid";
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "solve"},
@@ -371,7 +455,8 @@ int run_solve(const SolveArgs& a) {
     rec["result"]["error_vs_reference"] = nullptr;
   }
   if (a.verify && !failed)
-    rec["verify"] = {{"reference", "float64, openmp backend (bit-identical to serial), aos"},
+    rec["verify"] = {{"reference", holds_all_rows(sys) ? "float64, openmp backend (bit-identical to serial), aos"
+                                                       : "float64, mpi backend on the same ranks, aos"},
                      {"reference_iterations", v.reference_iterations},
                      {"max_rel_diff", v.max_rel_diff},
                      {"bound", v.bound},
@@ -397,10 +482,26 @@ int run_solve(const SolveArgs& a) {
                                  "events, host_compute by the host's clock"
                                : "host wall clock"}};
   if (gpu) rec["perf"]["transfer_bytes"] = res.transfer_bytes;
+  if (dist) {
+    rec["params"]["ranks"] = ranks;
+    nlohmann::json mpi = mpi_section(needs(ranks), limit);  // collective
+    mpi["split"] = "rows in blocks of equal count (the memory of F per rank)";
+    mpi["file"] = "each rank reads its rows of the one form-factor file (MPI-IO), the checksum chained over the ranks";
+    mpi["rank_read_s"] = hpcgi::comm::gather(rank_read_s);
+    mpi["rank_checksum_s"] = hpcgi::comm::gather(rank_checksum_s);
+    mpi["rank_chain_wait_s"] = hpcgi::comm::gather(rank_chain_s);
+    for (const auto& [key, v] : res.per_rank) mpi["rank_" + key] = v;
+    for (const auto& [key, v] : res.comm) mpi[key] = v;
+    rec["mpi"] = mpi;
+  }
   nlohmann::json info = {{"threads", std::to_string(res.threads)}};
   for (const auto& [key, value] : res.backend_info) info[key] = value;
   rec["backend_info"] = info;
 
+  if (!root) {  // rank 0 reports; the others only agree on a failure
+    if (failed) throw hpcgi::Agreed<hpcgi::NumericalError>(std::string(to_string(res.status)) + ": " + res.detail);
+    return 0;
+  }
   if (!a.quiet) {
     std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), m.size(),
                 cfg.method.c_str(), cfg.layout.c_str(), cfg.backend.c_str(), cfg.precision.c_str(), res.threads,
@@ -420,6 +521,17 @@ int run_solve(const SolveArgs& a) {
     std::printf("  time: load %.3f s, form factors %.3f s, setup %.4f s, solve %.4f s (%.4g ms/iteration, %.2f GB/s)\n",
                 load_s, ff_load_s, res.setup_s, res.solve_s, per_it * 1e3,
                 res.solve_s > 0 ? passes_bytes / res.solve_s / 1e9 : 0.0);
+    if (dist) {
+      std::printf("  ranks: %d; rows", ranks);
+      for (double r : res.per_rank.at("rows")) std::printf(" %.0f", r);
+      std::printf("; F held MiB");
+      for (double b : res.per_rank.at("ff_bytes")) std::printf(" %.1f", b / (1 << 20));
+      std::printf("; received per iteration KiB");
+      for (double b : res.per_rank.at("received_bytes_per_iteration")) std::printf(" %.1f", b / 1024);
+      std::printf("; in MPI s");
+      for (double x : res.per_rank.at("comm_s")) std::printf(" %.4f", x);
+      std::printf("\n");
+    }
     if (gpu)
       std::printf("  device: %s; upload of F %.4f s; during the solve: transfers %.4f s (%.3g MB), device compute "
                   "%.4f s, host compute %.4f s\n",
@@ -433,7 +545,11 @@ int run_solve(const SolveArgs& a) {
     for (const auto& f : snapshot_files) std::printf("  snapshot %s\n", f.c_str());
   if (a.json) std::cout << rec.dump() << std::endl;
   if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
-  if (failed) throw hpcgi::NumericalError(std::string(to_string(res.status)) + ": " + res.detail);
+  if (failed) {
+    const std::string what = std::string(to_string(res.status)) + ": " + res.detail;
+    if (dist) throw hpcgi::Agreed<hpcgi::NumericalError>(what);
+    throw hpcgi::NumericalError(what);
+  }
   return 0;
 }
 

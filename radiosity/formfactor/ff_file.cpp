@@ -38,16 +38,9 @@ static_assert(sizeof(Header) == 72, "the header layout is part of the file forma
 // FNV-1a over 64-bit words (8 times fewer multiplications than byte-wise FNV-1a on a file of gigabytes), the
 // trailing bytes one by one.
 uint64_t checksum(const void* data, size_t bytes) {
-  const unsigned char* p = static_cast<const unsigned char*>(data);
-  uint64_t h = 1469598103934665603ull;
-  size_t i = 0;
-  for (; i + 8 <= bytes; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, p + i, 8);
-    h = (h ^ w) * 1099511628211ull;
-  }
-  for (; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  return h;
+  Fnv64 h;
+  h.update(data, bytes);
+  return h.finish();
 }
 
 void set_name(char (&field)[8], const std::string& s) {
@@ -71,22 +64,58 @@ using File = std::unique_ptr<std::FILE, FileCloser>;
 
 }  // namespace
 
+void Fnv64::update(const void* data, size_t bytes) {
+  const unsigned char* p = static_cast<const unsigned char*>(data);
+  constexpr uint64_t kPrime = 1099511628211ull;
+  while (npending > 0 && npending < 8 && bytes > 0) {  // complete the word a previous piece began
+    pending[npending++] = *p++;
+    --bytes;
+  }
+  if (npending == 8) {
+    uint64_t w;
+    std::memcpy(&w, pending, 8);
+    hash = (hash ^ w) * kPrime;
+    npending = 0;
+  }
+  size_t i = 0;
+  for (; i + 8 <= bytes; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, p + i, 8);
+    hash = (hash ^ w) * kPrime;
+  }
+  for (; i < bytes; ++i) pending[npending++] = p[i];
+}
+
+uint64_t Fnv64::finish() const {
+  uint64_t h = hash;
+  for (uint32_t k = 0; k < npending; ++k) h = (h ^ pending[k]) * 1099511628211ull;
+  return h;
+}
+
+std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, const HemicubeParams& params) {
+  Header h{};
+  std::memcpy(h.magic, kMagic, sizeof kMagic);
+  h.version = kVersion;
+  h.resolution = static_cast<uint32_t>(params.resolution);
+  h.n = mesh.size();
+  set_name(h.storage, "dense");
+  set_name(h.precision, "float32");
+  h.mesh_hash = mesh_hash(mesh);
+  set_name(h.weights, to_string(params.weights));
+  h.threshold = params.threshold;
+  h.values_bytes = uint64_t(h.n) * h.n * sizeof(float);
+  std::array<char, kFormFactorHeaderBytes> bytes;
+  std::memcpy(bytes.data(), &h, sizeof h);
+  return bytes;
+}
+
 void save_form_factors(const std::string& path, const Mesh& mesh, const FormFactors& ff) {
   if (ff.n != mesh.size() || ff.values.size() != ff.n * ff.n)
     throw std::invalid_argument("save_form_factors: a matrix for " + std::to_string(ff.n) +
                                 " patches does not belong to a mesh of " + std::to_string(mesh.size()));
-  Header h{};
-  std::memcpy(h.magic, kMagic, sizeof kMagic);
-  h.version = kVersion;
-  h.resolution = static_cast<uint32_t>(ff.params.resolution);
-  h.n = ff.n;
-  set_name(h.storage, "dense");
-  set_name(h.precision, "float32");
-  h.mesh_hash = mesh_hash(mesh);
-  set_name(h.weights, to_string(ff.params.weights));
-  h.threshold = ff.params.threshold;
-  h.values_bytes = ff.values.size() * sizeof(float);
-  const uint64_t sum = checksum(ff.values.data(), h.values_bytes);
+  const auto header = form_factor_header(mesh, ff.params);
+  const size_t values_bytes = ff.values.size() * sizeof(float);
+  const uint64_t sum = checksum(ff.values.data(), values_bytes);
 
   const std::string tmp = path + ".tmp";
   auto fail = [&](const std::string& what) {
@@ -97,8 +126,8 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
   {
     File f(std::fopen(tmp.c_str(), "wb"));
     if (!f) fail("create");
-    if (std::fwrite(&h, sizeof h, 1, f.get()) != 1 ||
-        std::fwrite(ff.values.data(), 1, h.values_bytes, f.get()) != h.values_bytes ||
+    if (std::fwrite(header.data(), header.size(), 1, f.get()) != 1 ||
+        std::fwrite(ff.values.data(), 1, values_bytes, f.get()) != values_bytes ||
         std::fwrite(&sum, sizeof sum, 1, f.get()) != 1 || std::fflush(f.get()) != 0 || fsync(fileno(f.get())) != 0)
       fail("write");
     if (std::fclose(f.release()) != 0) fail("write");
@@ -106,18 +135,19 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename the finished");
 }
 
-FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
+namespace {
+
+// Reads and checks the header and the size of an open file; leaves the file positioned after the header.
+FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mesh& expected) {
   const std::string file = "form-factor file '" + path + "'";
-  File f(std::fopen(path.c_str(), "rb"));
-  if (!f) throw hpcgi::UsageError("cannot open " + file + ": " + std::strerror(errno));
-  if (std::fseek(f.get(), 0, SEEK_END) != 0) throw hpcgi::UsageError("cannot read " + file);
-  const long size_or_error = std::ftell(f.get());
+  if (std::fseek(f, 0, SEEK_END) != 0) throw hpcgi::UsageError("cannot read " + file);
+  const long size_or_error = std::ftell(f);
   if (size_or_error < 0) throw hpcgi::UsageError("cannot read " + file);
   const uint64_t size = static_cast<uint64_t>(size_or_error);
-  std::rewind(f.get());
+  std::rewind(f);
 
   Header h{};
-  const size_t got = std::fread(&h, 1, sizeof h, f.get());
+  const size_t got = std::fread(&h, 1, sizeof h, f);
   if (got < sizeof h.magic || std::memcmp(h.magic, kMagic, sizeof kMagic) != 0)
     throw hpcgi::UsageError("'" + path + "' is not a form-factor file (bad magic)");
   if (got < sizeof h)
@@ -143,22 +173,42 @@ FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
     throw hpcgi::UsageError((size < want ? "truncated " : "oversized ") + file + ": expected " +
                             std::to_string(want) + " bytes, found " + std::to_string(size));
 
-  FormFactors ff;
-  ff.n = h.n;
+  FormFactorFileInfo info;
+  info.n = h.n;
   try {
-    ff.params.resolution = static_cast<int>(h.resolution);
-    ff.params.weights = parse_hemicube_weights(name_of(h.weights));
-    ff.params.threshold = h.threshold;
-    validate(ff.params);
+    info.params.resolution = static_cast<int>(h.resolution);
+    info.params.weights = parse_hemicube_weights(name_of(h.weights));
+    info.params.threshold = h.threshold;
+    validate(info.params);
   } catch (const hpcgi::UsageError& e) {
     throw hpcgi::UsageError("corrupted " + file + ": " + e.what());
   }
-  ff.values.resize(h.n * h.n);
+  return info;
+}
+
+}  // namespace
+
+FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected) {
+  File f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
+  return check_header(f.get(), path, expected);
+}
+
+FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
+  const std::string file = "form-factor file '" + path + "'";
+  File f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw hpcgi::UsageError("cannot open " + file + ": " + std::strerror(errno));
+  const FormFactorFileInfo info = check_header(f.get(), path, expected);
+  FormFactors ff;
+  ff.n = info.n;
+  ff.params = info.params;
+  const size_t values_bytes = ff.n * ff.n * sizeof(float);
+  ff.values.resize(ff.n * ff.n);
   uint64_t sum = 0;
-  if (std::fread(ff.values.data(), 1, h.values_bytes, f.get()) != h.values_bytes ||
+  if (std::fread(ff.values.data(), 1, values_bytes, f.get()) != values_bytes ||
       std::fread(&sum, sizeof sum, 1, f.get()) != 1)
     throw hpcgi::UsageError("cannot read " + file + ": " + std::strerror(errno));
-  if (sum != checksum(ff.values.data(), h.values_bytes))
+  if (sum != checksum(ff.values.data(), values_bytes))
     throw hpcgi::UsageError("corrupted " + file + ": checksum mismatch");
   return ff;
 }

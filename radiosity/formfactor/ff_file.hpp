@@ -10,13 +10,48 @@
 //   32 char[8]  value precision "float32"
 // then n² float32 values, row-major (F[i*n + j]), then a uint64 checksum of those bytes (FNV-1a over 64-bit words).
 // A file's size is therefore known from its header, and a truncated file is told from a corrupted one.
+//
+// The file does not depend on how it was made: one process, or MPI ranks each writing their rows into it in parallel
+// (radiosity/dist/ff_mpi.hpp) give the same bytes, and any number of ranks reads either.
 #pragma once
+#include <array>
+#include <cstdint>
 #include <string>
 
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
 
 namespace radiosity {
+
+inline constexpr uint64_t kFormFactorHeaderBytes = 72;
+
+// The checksum: FNV-1a over 64-bit little-endian words, the last bytes (when the length is no multiple of 8) one by
+// one. Fed in pieces of any size, a piece ending inside a word carrying its bytes to the next; the state is plain
+// data, so that an MPI rank can hand it on to the next rank, which goes on where it stopped.
+struct Fnv64 {
+  uint64_t hash = 1469598103934665603ull;
+  uint8_t pending[8] = {};  // bytes of a word not yet complete
+  uint32_t npending = 0;
+  void update(const void* data, size_t bytes);
+  uint64_t finish() const;  // the checksum of everything fed so far
+};
+
+// What a form-factor file's header says, once checked against the mesh: enough to read any of its rows.
+struct FormFactorFileInfo {
+  size_t n = 0;
+  HemicubeParams params;
+  uint64_t values_offset() const { return kFormFactorHeaderBytes; }
+  uint64_t row_offset(size_t i) const { return kFormFactorHeaderBytes + 4 * uint64_t(i) * n; }
+  uint64_t checksum_offset() const { return row_offset(n); }
+  uint64_t file_bytes() const { return checksum_offset() + 8; }
+};
+
+// The header of the file for this mesh and these hemicube parameters: what save_form_factors writes first.
+std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, const HemicubeParams& params);
+
+// Opens path and checks its header and size against `expected`, with every refusal of load_form_factors but the
+// checksum (the values are not read).
+FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected);
 
 // Writes path + ".tmp", then renames it to path, so that path is never half-written. Throws std::runtime_error if
 // the file cannot be written and std::invalid_argument if ff is not a matrix for this mesh.

@@ -38,4 +38,13 @@ struct FormFactors {
   float operator()(size_t i, size_t j) const { return values[i * n + j]; }
 };
 
+// Rows [row_begin, row_end) of F: the block of rows one MPI rank computes, holds and writes (radiosity/dist/).
+struct FormFactorRows {
+  size_t n = 0;  // patches: the length of a row
+  size_t row_begin = 0, row_end = 0;
+  std::vector<float> values;  // (row_end - row_begin) × n, row-major: values[(i - row_begin)*n + j] = F_ij
+  HemicubeParams params;
+  size_t rows() const { return row_end - row_begin; }
+};
+
 }  // namespace radiosity

@@ -29,6 +29,14 @@ constexpr int64_t kSub = 256;
 // Triangles are clipped to a guard band twice the face's field of view (|x|, |y| <= 2d) as well as to the near
 // plane, which bounds the fixed-point coordinates; clipping outside the face changes no pixel inside it.
 constexpr double kGuard = 2.0;
+// hemicube_row_work's cost model, in nanoseconds on one core: transforming a patch into the row's frame; clipping
+// and rasterising a patch in front of the row's patch (more pixels to fill at a finer hemicube: a + b·R); clearing
+// and gathering one pixel. Fitted to single rows timed on this project's 2-core development machine (scene1, scene2
+// at R = 32, 128, 256, room3 at R = 64: per row, const + per-front-patch cost explains the time within 12-18% rms);
+// only their ratios matter for a split.
+constexpr double kWorkPerPatchNs = 25;
+constexpr double kWorkPerFrontPatchNs = 50, kWorkPerFrontPatchPerRNs = 0.5;
+constexpr double kWorkPerPixelNs = 1.5;
 // Pixels a row's span is filled in at a time (8 floats: one AVX2 vector).
 constexpr int kLanes = 8;
 
@@ -405,15 +413,21 @@ double hemicube_weight_total(const HemicubeParams& params) {
   return sum;
 }
 
-FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params, const HemicubeProgress& progress,
-                                 double progress_interval_s) {
+FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
+                                        size_t row_end, const HemicubeProgress& progress, double progress_interval_s) {
   validate(params);
   const size_t n = mesh.size();
   if (n > size_t(std::numeric_limits<int32_t>::max())) throw hpcgi::UsageError("too many patches for the hemicube");
-  FormFactors ff;
+  if (row_begin > row_end || row_end > n)
+    throw hpcgi::UsageError("form-factor rows " + std::to_string(row_begin) + ".." + std::to_string(row_end) +
+                            " are not rows of a mesh of " + std::to_string(n) + " patches");
+  FormFactorRows ff;
   ff.n = n;
+  ff.row_begin = row_begin;
+  ff.row_end = row_end;
   ff.params = params;
-  ff.values.assign(n * n, 0.0f);
+  const size_t rows = row_end - row_begin;
+  ff.values.assign(rows * n, 0.0f);
   const WeightTable weights = make_weights(params);
   std::vector<double> corners(9 * n);
   for (size_t j = 0; j < n; ++j)
@@ -437,9 +451,10 @@ FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params,
     RowRenderer renderer(mesh, corners, params, weights);
     std::vector<double> row(n, 0.0);
 #pragma omp for schedule(dynamic, 1)
-    for (int64_t i = 0; i < int64_t(n); ++i) {
-      renderer.render(size_t(i), row.data());
-      float* out = &ff.values[size_t(i) * n];
+    for (int64_t k = 0; k < int64_t(rows); ++k) {
+      const size_t i = row_begin + size_t(k);
+      renderer.render(i, row.data());
+      float* out = &ff.values[size_t(k) * n];
       for (size_t j = 0; j < n; ++j) {
         const float f = static_cast<float>(row[j]);
         out[j] = f > params.threshold ? f : 0.0f;  // compared as stored: no kept value is <= threshold
@@ -452,14 +467,58 @@ FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params,
         int64_t due = next_report_ns.load();
         if (now >= due && next_report_ns.compare_exchange_strong(due, now + interval_ns)) {
 #pragma omp critical(hemicube_progress)
-          progress(d, n, now * 1e-9);
+          progress(d, rows, now * 1e-9);
         }
       }
     }
   }
   // A run long enough to have reported ends with a report of the whole.
-  if (progress && elapsed_ns() >= interval_ns) progress(n, n, elapsed_ns() * 1e-9);
+  if (progress && elapsed_ns() >= interval_ns) progress(rows, rows, elapsed_ns() * 1e-9);
   return ff;
+}
+
+FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params, const HemicubeProgress& progress,
+                                 double progress_interval_s) {
+  FormFactorRows rows = compute_form_factor_rows(mesh, params, 0, mesh.size(), progress, progress_interval_s);
+  FormFactors ff;
+  ff.n = rows.n;
+  ff.params = rows.params;
+  ff.values = std::move(rows.values);
+  return ff;
+}
+
+double hemicube_memory_bytes(size_t n, size_t rows, int resolution, int threads) {
+  const double dn = double(n), r2 = double(resolution) * double(resolution) + kLanes;
+  return 4.0 * double(rows) * dn + 72.0 * dn + double(threads) * ((8.0 + 72.0 + 6 * 4.0) * dn + 8.0 * r2);
+}
+
+std::vector<uint64_t> hemicube_row_work(const Mesh& mesh, const HemicubeParams& params, size_t sample) {
+  validate(params);
+  const size_t n = mesh.size();
+  const size_t stride = std::max<size_t>(1, (n + sample - 1) / std::max<size_t>(1, sample));
+  const double pixels = 3.0 * double(params.resolution) * double(params.resolution);
+  const double per_front = kWorkPerFrontPatchNs + kWorkPerFrontPatchPerRNs * params.resolution;
+  std::vector<uint64_t> work(n);
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < int64_t(n); ++i) {
+    const Patch& pi = mesh.patches[size_t(i)];
+    if (!(pi.area() > 0)) {  // the renderer returns at once
+      work[size_t(i)] = 1;
+      continue;
+    }
+    const Vec3 nrm = pi.normal(), c = pi.centroid();
+    size_t front = 0;
+    for (size_t j = 0; j < n; j += stride) {
+      if (j == size_t(i)) continue;
+      const Patch& pj = mesh.patches[j];
+      bool in_front = false;
+      for (int k = 0; k < 3; ++k) in_front = in_front || (pj.v[k] - c).dot(nrm) > 0;
+      front += in_front;
+    }
+    work[size_t(i)] = uint64_t(kWorkPerPatchNs * double(n) + per_front * double(front * stride) +
+                               kWorkPerPixelNs * pixels);
+  }
+  return work;
 }
 
 }  // namespace radiosity

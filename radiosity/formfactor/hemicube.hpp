@@ -31,6 +31,25 @@ HemicubeProgress stderr_progress();
 FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params,
                                  const HemicubeProgress& progress = {}, double progress_interval_s = 5.0);
 
+// Rows [row_begin, row_end) of F, each exactly as compute_form_factors computes it (a row depends on nothing but
+// the mesh and the parameters), so blocks computed apart and put together give the same bits. Throws UsageError for
+// invalid parameters or a range outside the mesh.
+FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
+                                        size_t row_end, const HemicubeProgress& progress = {},
+                                        double progress_interval_s = 5.0);
+
+// An estimate of each row's hemicube cost in nanoseconds on one core, to split the rows among MPI ranks by work
+// (radiosity/dist/split.hpp): a row transforms every patch, clips and rasterises those in front of the patch's
+// plane, and clears and gathers the hemicube's 3R² pixels; patches in front are counted on an evenly spaced sample of
+// at most `sample` patches. Deterministic: every rank computes the same estimate, so all agree on the split
+// without talking.
+std::vector<uint64_t> hemicube_row_work(const Mesh& mesh, const HemicubeParams& params, size_t sample = 2048);
+
+// Bytes a computation of `rows` rows of an n-patch mesh holds besides the mesh: the rows' float32 values, the
+// patches' corners, and per thread a row of doubles, the patches' coordinates in the row's frame, its lists of
+// patches per face and the item and depth buffers of R² pixels.
+double hemicube_memory_bytes(size_t n, size_t rows, int resolution, int threads);
+
 // The sum of the pixel weights over the whole hemicube: what a patch that sees only other patches gets as its row
 // sum. 1 up to discretisation with exact weights; about 0.988 with rrv2007 weights.
 double hemicube_weight_total(const HemicubeParams& params);

@@ -19,6 +19,13 @@ std::unique_ptr<Kernels<T>> make_openmp(const System& sys, const SolveConfig& cf
 // RRV's own data structure and loop (original.cpp).
 SolveResult run_original(const System& sys, const SolveConfig& cfg, const IterationCallback& callback);
 
+#ifdef HAVE_MPI
+// The MPI backend (mpi.cpp, compiled by the MPI wrapper): each rank's kernels over its block of rows of F, the system
+// holding that block (System::rows_begin, rows_end); collective from construction on.
+template <class T>
+std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, int vectors);
+#endif
+
 #ifdef HAVE_CUDA
 // The GPU backends (cuda_aos.cu, cublas_soa.cu, hybrid.cu). Each refuses with hpcgi::UsageError, before it
 // allocates, a machine without a GPU and a system that will not fit in the GPU's free memory. solve.cpp's driver runs

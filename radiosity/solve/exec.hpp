@@ -74,4 +74,29 @@ class OpenMPExec {
   mutable std::vector<Partial> partial_;
 };
 
+// OpenMPExec on the block of rows [first, last) only (last = SIZE_MAX: to the end): its thread blocks of those
+// rows, shifted by first. Runs linalg.hpp's kernels on a part of the rows: the CPU's rows of backend hybrid, an MPI
+// rank's rows of backend mpi. With first = 0 and last = n it gives OpenMPExec's blocks.
+class BlockExec {
+ public:
+  BlockExec(size_t first, size_t last, int threads) : first_(first), last_(last), ex_(threads) {}
+  int threads() const { return ex_.threads(); }
+  template <class Body>
+  void rows(size_t n, Body&& body) const {
+    const size_t end = std::min(n, last_);
+    if (end <= first_) return;
+    ex_.rows(end - first_, [&](size_t b, size_t e) { body(first_ + b, first_ + e); });
+  }
+  template <class Body>
+  Rgb reduce(size_t n, Body&& body) const {
+    const size_t end = std::min(n, last_);
+    if (end <= first_) return {0, 0, 0};
+    return ex_.reduce(end - first_, [&](size_t b, size_t e) { return body(first_ + b, first_ + e); });
+  }
+
+ private:
+  size_t first_, last_;
+  OpenMPExec ex_;
+};
+
 }  // namespace radiosity

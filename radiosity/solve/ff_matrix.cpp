@@ -66,12 +66,14 @@ std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity)
   return rows;
 }
 
-size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold) {
+size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                  size_t row_begin, size_t row_end) {
   size_t count = 0;
+  const size_t last = std::min(row_end, n);
 #pragma omp parallel for reduction(+ : count) schedule(static)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = row_begin; i < last; ++i) {
     if (!row_needed(reflectivity[i])) continue;
-    const float* Fi = F + i * n;
+    const float* Fi = F + (i - row_begin) * n;
     for (size_t j = 0; j < n; ++j) count += is_kept(Fi[j], threshold);
   }
   return count;
@@ -89,10 +91,11 @@ FFStorage cheaper_storage(FFValues values, size_t n, size_t kept) {
              : FFStorage::dense;
 }
 
-size_t apply_threshold(float* F, size_t n, double threshold) {
+size_t apply_threshold(float* F, size_t n, double threshold, size_t rows) {
   size_t nonzero = 0;
+  const size_t count = std::min(rows, n) * n;
 #pragma omp parallel for reduction(+ : nonzero) schedule(static)
-  for (size_t k = 0; k < n * n; ++k) {
+  for (size_t k = 0; k < count; ++k) {
     if (!is_kept(F[k], threshold)) F[k] = 0;
     nonzero += F[k] != 0;
   }

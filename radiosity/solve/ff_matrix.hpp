@@ -65,8 +65,10 @@ struct FFMatrixOptions {
   double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
 };
 
-// Entries kept by the options' threshold in the rows that are needed (what CSR stores), counted in one pass.
-size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold);
+// Entries kept by the options' threshold in the rows that are needed (what CSR stores), counted in one pass. F may
+// hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row): those are counted.
+size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                  size_t row_begin = 0, size_t row_end = SIZE_MAX);
 
 // Bytes a matrix of these options holds (and one product reads): dense n²·v, csr kept·(v + 4) + 8·(n + 1),
 // v = value_bytes(values).
@@ -75,9 +77,9 @@ double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kep
 // The storage `auto` picks: csr when it holds (and reads) fewer bytes than dense in the same values.
 FFStorage cheaper_storage(FFValues values, size_t n, size_t kept);
 
-// Sets every F_ij with |F_ij| <= threshold to 0, in place (a dense float32 run's threshold: no copy of F).
-// Returns how many non-zero values stay.
-size_t apply_threshold(float* F, size_t n, double threshold);
+// Sets every F_ij with |F_ij| <= threshold to 0, in place (a dense float32 run's threshold: no copy of F), in the
+// first `rows` rows of F (default: all n; an MPI rank: its block). Returns how many non-zero values stay.
+size_t apply_threshold(float* F, size_t n, double threshold, size_t rows = SIZE_MAX);
 
 class FormFactorMatrix {
  public:

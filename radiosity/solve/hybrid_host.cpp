@@ -1,41 +1,18 @@
 #include "radiosity/solve/hybrid_host.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 #include "radiosity/solve/exec.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/linalg.hpp"
 
 namespace radiosity {
-namespace {
-
-// OpenMPExec on rows [first, n) only: its blocks of the n - first rows, shifted by first (first = 0: its blocks).
-class RowsFrom {
- public:
-  RowsFrom(size_t first, int threads) : first_(first), ex_(threads) {}
-  int threads() const { return ex_.threads(); }
-  template <class Body>
-  void rows(size_t n, Body&& body) const {
-    if (n <= first_) return;
-    ex_.rows(n - first_, [&](size_t b, size_t e) { body(first_ + b, first_ + e); });
-  }
-  template <class Body>
-  Rgb reduce(size_t n, Body&& body) const {
-    if (n <= first_) return {0, 0, 0};
-    return ex_.reduce(n - first_, [&](size_t b, size_t e) { return body(first_ + b, first_ + e); });
-  }
-
- private:
-  size_t first_;
-  OpenMPExec ex_;
-};
-
-}  // namespace
 
 template <class T>
 struct HostRows<T>::Impl {
   Impl(const System& sys, size_t first_row, int vectors, int threads)
-      : n(sys.n), first(first_row), F(sys.F), ex(first_row, threads), rho(sys.n), e(sys.n) {
+      : n(sys.n), first(first_row), F(sys.F), ex(first_row, SIZE_MAX, threads), rho(sys.n), e(sys.n) {
     put(rho, sys.reflectivity);
     put(e, sys.emission);
     vec.reserve(vectors);
@@ -51,7 +28,7 @@ struct HostRows<T>::Impl {
 
   size_t n, first;
   const float* F;
-  RowsFrom ex;
+  BlockExec ex;  // rows [first, n)
   Aos<T> rho, e;
   std::vector<Aos<T>> vec;
 };

@@ -1,11 +1,12 @@
 // The contract of a backend that runs the shared methods (after TeaLeaf and BabelStream's Stream.h): it holds
 // the system (F, ρ, E) and a few vectors in its own memory and layout, named by slot number, and supplies the
 // operations Jacobi and BiCG-STAB are written in. Scalars cross the interface in double, one per channel.
-// A future GPU, hybrid or MPI backend implements this class in its own file; the methods do not change.
+// Each backend (serial, openmp, the GPU ones, mpi) implements this class in its own file; the methods do not change.
 #pragma once
 #include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/system.hpp"
 
 namespace radiosity {
 
@@ -33,6 +34,11 @@ class Kernels {
   // time between those two marks into upload, transfer and compute, and a description of the device.
   virtual void settled() {}
   virtual void account(SolveResult&) const {}
+  // The independent check of the answer B (system.hpp's relative_residual), which a backend whose system holds only
+  // its rank's rows of F (mpi) adds up across the ranks.
+  virtual Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) const {
+    return radiosity::relative_residual(sys, B);
+  }
 };
 
 }  // namespace radiosity

@@ -150,10 +150,12 @@ inline void sums4(const typename Val::stored* const (&F)[kGroup], const T* __res
 // thread count and however a thread's rows are grouped (see below). Kept out of line so that every backend and
 // thread count runs the same machine code for a row (inlined, the compiler may vectorize each caller's copy
 // differently and move the last bits).
+// F holds the rows from first_row on (0: the whole matrix; an MPI rank's block of rows: its first row), row i at
+// F + (i - first_row)·n.
 template <class Val, class V>
 [[gnu::noinline]] void matvec_rows(const typename Val::stored* F, const int32_t* rows, const V& x, V& y,
                                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
-                                   typename V::value_type d, size_t k0, size_t k1) {
+                                   typename V::value_type d, size_t k0, size_t k1, size_t first_row = 0) {
   using T = typename V::value_type;
   constexpr int C = V::kChannels;
   const size_t n = x.size();
@@ -192,7 +194,8 @@ template <class Val, class V>
       rows_here += k < k1;
     }
     T s[kGroup][3] = {};
-    const typename Val::stored* const Fr[kGroup] = {F + i[0] * n, F + i[1] * n, F + i[2] * n, F + i[3] * n};
+    const typename Val::stored* const Fr[kGroup] = {F + (i[0] - first_row) * n, F + (i[1] - first_row) * n,
+                                                    F + (i[2] - first_row) * n, F + (i[3] - first_row) * n};
     sums4<Val, C>(Fr, x0, x1, x2, n, s);
     for (size_t r = 0; r < rows_here; ++r) store(i[r], s[r]);
   }
@@ -235,27 +238,35 @@ void matvec_skipped_row(const V& x, V& y, const V& e, typename V::value_type a, 
   for (int ch = 0; ch < V::kChannels; ++ch) y(i, ch) = a * x(i, ch) + d * e(i, ch);
 }
 
-// y = a·x + c·ρ ⊙ (F x) + d·e for a dense F of stored values Val. `rows`: the rows to compute, increasing (the
-// others are patches with reflectivity 0, given a·x + d·e), or empty for all. Each thread computes the rows of its
-// block (matvec_rows gives a row the same bits whatever rows it is grouped with). y must not be x.
+// y = a·x + c·ρ ⊙ (F x) + d·e for a dense F of stored values Val, on rows [row_begin, row_end) (default: all; an
+// MPI rank's block, F then holding only those rows from its first: see matvec_rows). `rows`: the rows to compute,
+// increasing (the others are patches with reflectivity 0, given a·x + d·e), or empty for all. Each thread computes
+// the rows of its block (matvec_rows gives a row the same bits whatever rows it is grouped with). y must not be x.
 template <class Val, class Exec, class V>
 void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vector<int32_t>& rows, const V& x, V& y,
                   const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
-                  typename V::value_type d) {
+                  typename V::value_type d, size_t row_begin = 0, size_t row_end = SIZE_MAX) {
+  const size_t b0 = row_begin, b1 = std::min(row_end, x.size());
+  if (b1 <= b0) return;
   if (rows.empty()) {
-    ex.rows(x.size(), [&](size_t i0, size_t i1) { matvec_rows<Val>(F, nullptr, x, y, rho, e, a, c, d, i0, i1); });
+    ex.rows(b1 - b0, [&](size_t t0, size_t t1) {
+      matvec_rows<Val>(F, nullptr, x, y, rho, e, a, c, d, b0 + t0, b0 + t1, b0);
+    });
     return;
   }
-  ex.rows(x.size(), [&](size_t i0, size_t i1) {
-    const size_t lo = size_t(std::lower_bound(rows.begin(), rows.end(), int64_t(i0)) - rows.begin());
-    const size_t hi = size_t(std::lower_bound(rows.begin(), rows.end(), int64_t(i1)) - rows.begin());
+  const auto index_of = [&rows](size_t i) {  // the first k with rows[k] >= i
+    return size_t(std::lower_bound(rows.begin(), rows.end(), int64_t(i)) - rows.begin());
+  };
+  ex.rows(b1 - b0, [&](size_t t0, size_t t1) {
+    const size_t i0 = b0 + t0, i1 = b0 + t1;
+    const size_t lo = index_of(i0), hi = index_of(i1);
     for (size_t i = i0, k = lo; i < i1; ++i) {
       if (k < hi && size_t(rows[k]) == i)
         ++k;
       else
         matvec_skipped_row(x, y, e, a, d, i);
     }
-    if (lo < hi) matvec_rows<Val>(F, rows.data(), x, y, rho, e, a, c, d, lo, hi);
+    if (lo < hi) matvec_rows<Val>(F, rows.data(), x, y, rho, e, a, c, d, lo, hi, b0);
   });
 }
 

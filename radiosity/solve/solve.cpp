@@ -31,7 +31,7 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
 
   t.reset();
   k->download(run.answer, res.B);
-  res.rel_residual = relative_residual(sys, res.B);
+  res.rel_residual = k->relative_residual(sys, res.B);
   res.check_s = t.seconds();
   res.iterations = run.iterations;
   res.status = run.status;
@@ -89,6 +89,12 @@ const char* to_string(SolveStatus s) {
 #define GPU_BACKEND(make) false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr
 #endif
 
+#ifdef HAVE_MPI
+#define MPI_BACKEND true, "", run_kernels<make_mpi<float>, make_mpi<double>>
+#else
+#define MPI_BACKEND false, "this build has no MPI (mpicxx was not on PATH when it was compiled)", nullptr
+#endif
+
 const std::vector<SolveBackend>& solve_backends() {
   static const std::vector<SolveBackend> list = {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
@@ -105,6 +111,9 @@ const std::vector<SolveBackend>& solve_backends() {
        {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(make_cublas)},
       {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
        {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_hybrid)},
+      {"mpi", "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
+              "after every product (MPI_Allgatherv), dots by MPI_Allreduce",
+       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, MPI_BACKEND, false, true, true},
   };
   return list;
 }
@@ -129,6 +138,10 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
   }
   if (!b->built) throw hpcgi::UsageError("solver backend '" + b->name + "' is not available: " + b->why_not);
+  if (!holds_all_rows(sys) && !b->distributed)
+    throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
+                            std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
+                            " (an MPI rank's share): use backend mpi");
   if (sys.stored.n && !b->any_storage) {
     std::string which;
     for (const SolveBackend& x : solve_backends())

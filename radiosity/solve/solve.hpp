@@ -65,6 +65,10 @@ struct SolveResult {
   double host_compute_s = 0;      // hybrid: the CPU's rows during the solve (host wall clock)
   double transfer_bytes = 0;      // bytes copied between host and device during the solve
   std::map<std::string, std::string> backend_info;  // GPU backends: the GPU, CUDA versions, hybrid's row split
+  // Backend mpi: one value per rank, in rank order (rows, bytes of F held, bytes received per iteration, seconds in
+  // MPI calls, ...; radiosity/solve/mpi.cpp says which), and counts that are the same on every rank.
+  std::map<std::string, std::vector<double>> per_rank;
+  std::map<std::string, double> comm;
 };
 
 // Called after every iteration k = 1, 2, ... with the radiosity B_k (report Figure 4.2: snapshots after 1, 2, 4,
@@ -83,6 +87,7 @@ struct SolveBackend {
   BackendRun run;
   bool any_storage = false;  // reads F in any storage (System::stored); the others need dense float32 F
   bool one_channel = false;  // solves a grey system as one channel
+  bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
 };
 const std::vector<SolveBackend>& solve_backends();
 

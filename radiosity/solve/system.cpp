@@ -47,6 +47,9 @@ bool is_grey(const System& sys) {
 void check_system(const System& sys) {
   if (sys.n == 0) throw hpcgi::UsageError("radiosity system: no patches");
   if (!sys.F && !sys.stored.n) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
+  if (sys.rows_end != SIZE_MAX && (sys.rows_begin > sys.rows_end || sys.rows_end > sys.n))
+    throw hpcgi::UsageError("radiosity system: rows " + std::to_string(sys.rows_begin) + ".." +
+                            std::to_string(sys.rows_end) + " of F for " + std::to_string(sys.n) + " patches");
   if (sys.stored.n && sys.stored.n != sys.n)
     throw hpcgi::UsageError("radiosity system: a form-factor matrix of " + std::to_string(sys.stored.n) +
                             " patches for " + std::to_string(sys.n));
@@ -90,23 +93,28 @@ Rgb row_product(const FFMatrixView& F, Get get, size_t i, const std::vector<Rgb>
 
 }  // namespace
 
-Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) {
+Rgb residual_squares(const System& sys, const std::vector<Rgb>& B) {
   check_system(sys);
   if (B.size() != sys.n) throw hpcgi::UsageError("relative_residual: B has the wrong size");
-  const size_t n = sys.n;
+  const size_t first = holds_all_rows(sys) ? 0 : sys.rows_begin, last = holds_all_rows(sys) ? sys.n : sys.rows_end;
   const FFMatrixView F = system_matrix(sys);
+  if (first != 0 && F.storage == FFStorage::csr)
+    throw hpcgi::UsageError("relative_residual: a rank's block of rows is held dense only");
   const auto* f32 = static_cast<const float*>(F.data);
   const auto* u16 = static_cast<const uint16_t*>(F.data);
   double r0 = 0, r1 = 0, r2 = 0;
 #pragma omp parallel for schedule(static) reduction(+ : r0, r1, r2)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = first; i < last; ++i) {
     const Rgb& rho = sys.reflectivity[i];
+    const size_t local = i - first;  // row i of F as the system holds it
     Rgb s{0, 0, 0};
     if (row_needed(rho)) {  // a patch with reflectivity 0 takes nothing from F (B_i = E_i)
       switch (F.values) {
-        case FFValues::float32: s = row_product(F, [&](size_t k) { return f32[k]; }, i, B); break;
-        case FFValues::float16: s = row_product(F, [&](size_t k) { return half_to_float(u16[k]); }, i, B); break;
-        case FFValues::bfloat16: s = row_product(F, [&](size_t k) { return bfloat16_to_float(u16[k]); }, i, B); break;
+        case FFValues::float32: s = row_product(F, [&](size_t k) { return f32[k]; }, local, B); break;
+        case FFValues::float16: s = row_product(F, [&](size_t k) { return half_to_float(u16[k]); }, local, B); break;
+        case FFValues::bfloat16:
+          s = row_product(F, [&](size_t k) { return bfloat16_to_float(u16[k]); }, local, B);
+          break;
       }
     }
     const Rgb& e = sys.emission[i];
@@ -117,8 +125,16 @@ Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) {
     r1 += d1 * d1;
     r2 += d2 * d2;
   }
+  return {r0, r1, r2};
+}
+
+Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) {
+  if (!holds_all_rows(sys))
+    throw hpcgi::UsageError("relative_residual: the system holds only rows " + std::to_string(sys.rows_begin) + ".." +
+                            std::to_string(sys.rows_end) + " of F (a rank's share)");
+  const Rgb r2 = residual_squares(sys, B);
   const Rgb scale = residual_scale(sys);
-  return {std::sqrt(r0) / scale[0], std::sqrt(r1) / scale[1], std::sqrt(r2) / scale[2]};
+  return {std::sqrt(r2[0]) / scale[0], std::sqrt(r2[1]) / scale[1], std::sqrt(r2[2]) / scale[2]};
 }
 
 }  // namespace radiosity

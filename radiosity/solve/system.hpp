@@ -2,6 +2,7 @@
 // A_c b_c = e_c with A_c = I - diag(ρ_c) F. The form-factor matrix F is shared by the three channels.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "radiosity/mesh.hpp"
@@ -19,7 +20,15 @@ struct System {
   std::vector<Rgb> emission;       // E, n entries
   std::vector<Rgb> reflectivity;   // ρ, n entries
   std::vector<Rgb> initial;        // B0, n entries (RRV: rrv_initial_radiosity)
+  // An MPI rank's system (backend mpi): F holds only rows [rows_begin, rows_end), row i at F + (i - rows_begin)·n;
+  // the vectors are whole. rows_end = SIZE_MAX: F holds every row.
+  size_t rows_begin = 0, rows_end = SIZE_MAX;
 };
+
+// Whether F holds every row (any backend runs the system) or only a rank's block (backend mpi only).
+inline bool holds_all_rows(const System& sys) {
+  return sys.rows_end == SIZE_MAX || (sys.rows_begin == 0 && sys.rows_end == sys.n);
+}
 
 // RRV's starting radiosity: B0 = max(radiosity attribute, emission), channel by channel.
 std::vector<Rgb> rrv_initial_radiosity(const std::vector<Rgb>& attribute, const std::vector<Rgb>& emission);
@@ -42,7 +51,11 @@ void check_system(const System& sys);
 Rgb residual_scale(const System& sys);
 
 // ‖e_c - A_c b_c‖₂ / residual_scale_c per channel, computed in double from B whatever precision produced it (the
-// independent check every backend's answer gets; OpenMP threads over rows), on system_matrix(sys).
+// independent check every backend's answer gets; OpenMP threads over rows), on system_matrix(sys). The system must
+// hold every row of F; an MPI rank adds up residual_squares of its rows with the other ranks'.
 Rgb relative_residual(const System& sys, const std::vector<Rgb>& B);
+
+// Σ_i (e_ic - (A_c b_c)_i)² per channel over the rows of F the system holds (all of them, or a rank's block).
+Rgb residual_squares(const System& sys, const std::vector<Rgb>& B);
 
 }  // namespace radiosity

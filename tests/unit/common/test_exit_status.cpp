@@ -7,6 +7,7 @@
 
 #include "common/cli.hpp"
 #include "common/errors.hpp"
+#include "common/memory.hpp"
 
 namespace {
 
@@ -29,4 +30,23 @@ TEST(ExitStatus, EachErrorHasItsStatusAndOneLine) {
   EXPECT_EQ(err, "prog: numerical failure: breakdown: p·Ap = 0\n");
   EXPECT_EQ(status_of([]() -> int { throw std::runtime_error("disk full"); }, err), 1);
   EXPECT_EQ(err, "prog: error: disk full\n");
+}
+
+TEST(ByteSizes, UnitsAreBinary) {
+  EXPECT_EQ(hpcgi::parse_bytes("67108864"), 67108864.0);
+  EXPECT_EQ(hpcgi::parse_bytes("64M"), 64.0 * 1024 * 1024);
+  EXPECT_EQ(hpcgi::parse_bytes("64MiB"), 64.0 * 1024 * 1024);
+  EXPECT_EQ(hpcgi::parse_bytes("64MB"), 64.0 * 1024 * 1024);
+  EXPECT_EQ(hpcgi::parse_bytes("1.5G"), 1.5 * 1024 * 1024 * 1024);
+  EXPECT_EQ(hpcgi::parse_bytes("2k"), 2048.0);
+  for (const char* bad : {"", "M", "64X", "64 M", "-1G", "0", "nan", "inf", "64MM", "64iB"})
+    EXPECT_THROW(hpcgi::parse_bytes(bad), hpcgi::UsageError) << bad;
+  EXPECT_EQ(hpcgi::format_bytes(64.0 * 1024 * 1024), "64.0 MiB");
+}
+
+TEST(ExitStatus, AnAgreedErrorKeepsItsStatus) {
+  std::string err;
+  EXPECT_EQ(status_of([]() -> int { throw hpcgi::Agreed<hpcgi::UsageError>("too big"); }, err), 2);
+  EXPECT_EQ(err, "prog: too big\n");
+  EXPECT_EQ(status_of([]() -> int { throw hpcgi::Agreed<hpcgi::NumericalError>("nonfinite"); }, err), 3);
 }

@@ -174,3 +174,27 @@ TEST_F(FormFactorFile, ControlCharactersInNamesAreQuotedEscaped) {
   EXPECT_NE(msg.find("storage '\\x0d\\x0d\\x0aab\\x09'"), std::string::npos) << msg;
   EXPECT_EQ(msg.find_first_of("\r\n\t"), std::string::npos) << msg;
 }
+
+// The checksum fed in pieces of any size (an MPI rank's rows, ending inside a 64-bit word when n is odd) is the
+// checksum of the whole.
+TEST(Fnv64, PiecesGiveTheHashOfTheWhole) {
+  std::vector<unsigned char> bytes(1000);
+  for (size_t k = 0; k < bytes.size(); ++k) bytes[k] = static_cast<unsigned char>(k * 37 + 11);
+  Fnv64 whole;
+  whole.update(bytes.data(), bytes.size());
+  for (size_t cut1 : {0u, 1u, 4u, 7u, 8u, 12u, 500u})
+    for (size_t cut2 : {cut1, cut1 + 3, cut1 + 4, cut1 + 9, size_t(999)}) {
+      if (cut2 < cut1 || cut2 > bytes.size()) continue;
+      Fnv64 h;
+      h.update(bytes.data(), cut1);
+      h.update(bytes.data() + cut1, cut2 - cut1);
+      h.update(bytes.data() + cut2, bytes.size() - cut2);
+      EXPECT_EQ(h.finish(), whole.finish()) << cut1 << ", " << cut2;
+    }
+  // Odd lengths: the last bytes hashed one by one, as the file's checksum always was.
+  Fnv64 a, b;
+  a.update(bytes.data(), 13);
+  b.update(bytes.data(), 5);
+  b.update(bytes.data() + 5, 8);
+  EXPECT_EQ(a.finish(), b.finish());
+}
