@@ -20,28 +20,13 @@ class CpuKernels final : public Kernels<T> {
   CpuKernels(const System& sys, int vectors, Exec ex)
       : ex_(std::move(ex)), n_(sys.n), F_(system_matrix(sys)), rows_(dense_rows_to_compute(sys.reflectivity)),
         rho_(sys.n), e_(sys.n) {
-    load(rho_, sys.reflectivity);
-    load(e_, sys.emission);
-    vec_.reserve(vectors);
-    for (int k = 0; k < vectors; ++k) {
-      vec_.emplace_back(n_);
-      V& v = vec_.back();
-      ex_.rows(n_, [&](size_t i0, size_t i1) {  // first touch by the thread that will own these rows
-        for (size_t i = i0; i < i1; ++i)
-          for (int c = 0; c < V::kChannels; ++c) v(i, c) = 0;
-      });
-    }
+    load(ex_, rho_, sys.reflectivity);
+    load(ex_, e_, sys.emission);
+    vec_ = zero_vectors<V>(ex_, n_, vectors);
   }
 
-  void upload(int v, const std::vector<Rgb>& x) override { load(vec_.at(v), x); }
-  void download(int v, std::vector<Rgb>& x) override {
-    const V& src = vec_.at(v);
-    x.resize(n_);
-    ex_.rows(n_, [&](size_t i0, size_t i1) {
-      for (size_t i = i0; i < i1; ++i)
-        for (int c = 0; c < 3; ++c) x[i][c] = src(i, c);
-    });
-  }
+  void upload(int v, const std::vector<Rgb>& x) override { load(ex_, vec_.at(v), x); }
+  void download(int v, std::vector<Rgb>& x) override { store(ex_, vec_.at(v), x); }
   void matvec(int y, int x, double a, double c, double d) override {
     affine_matvec(ex_, F_, rows_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d));
   }
@@ -59,13 +44,6 @@ class CpuKernels final : public Kernels<T> {
   }
 
  private:
-  void load(V& dst, const std::vector<Rgb>& src) {
-    ex_.rows(n_, [&](size_t i0, size_t i1) {
-      for (size_t i = i0; i < i1; ++i)
-        for (int c = 0; c < V::kChannels; ++c) dst(i, c) = T(src[i][c]);
-    });
-  }
-
   Exec ex_;
   size_t n_;
   FFMatrixView F_;

@@ -382,4 +382,38 @@ void copy(const Exec& ex, V& y, const V& x) {
   });
 }
 
+// Host values in and out of a vector, and fresh zero vectors, each row written by the thread whose rows it are (for
+// a new vector: its first touch), as every kernel above shares them out.
+template <class Exec, class V>
+void load(const Exec& ex, V& dst, const std::vector<Rgb>& src) {
+  using T = typename V::value_type;
+  ex.rows(dst.size(), [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i)
+      for (int c = 0; c < V::kChannels; ++c) dst(i, c) = T(src[i][c]);
+  });
+}
+
+template <class Exec, class V>
+void store(const Exec& ex, const V& src, std::vector<Rgb>& dst) {  // a single channel fills r, g and b alike
+  dst.resize(src.size());
+  ex.rows(src.size(), [&](size_t i0, size_t i1) {
+    for (size_t i = i0; i < i1; ++i)
+      for (int c = 0; c < 3; ++c) dst[i][c] = src(i, c);
+  });
+}
+
+template <class V, class Exec>
+std::vector<V> zero_vectors(const Exec& ex, size_t n, int count) {
+  std::vector<V> out;
+  out.reserve(size_t(count));
+  for (int k = 0; k < count; ++k) {
+    V& v = out.emplace_back(n);
+    ex.rows(n, [&](size_t i0, size_t i1) {
+      for (size_t i = i0; i < i1; ++i)
+        for (int c = 0; c < V::kChannels; ++c) v(i, c) = 0;
+    });
+  }
+  return out;
+}
+
 }  // namespace radiosity

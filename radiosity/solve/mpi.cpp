@@ -82,32 +82,19 @@ class MpiKernels final : public Kernels<T> {
     }
     whole_ = first_ == 0 && last_ == n_;
     matrix_bytes_ = 4.0 * double(rows_.empty() ? n_ : rows_.size()) * double(n_);
-    load(rho_, sys.reflectivity);
-    load(e_, sys.emission);
-    vec_.reserve(vectors);
-    for (int k = 0; k < vectors; ++k) {
-      vec_.emplace_back(n_);
-      V& v = vec_.back();
-      ex_.rows(n_, [&](size_t i0, size_t i1) {
-        for (size_t i = i0; i < i1; ++i)
-          for (int c = 0; c < V::kChannels; ++c) v(i, c) = 0;
-      });
-    }
+    load(ex_, rho_, sys.reflectivity);
+    load(ex_, e_, sys.emission);
+    vec_ = zero_vectors<V>(ex_, n_, vectors);
     full_.assign(size_t(vectors), true);
   }
 
   void upload(int v, const std::vector<Rgb>& x) override {
-    load(vec_.at(v), x);
+    load(ex_, vec_.at(v), x);
     full_.at(v) = true;
   }
   void download(int v, std::vector<Rgb>& x) override {
     gather(v);
-    const V& src = vec_.at(v);
-    x.resize(n_);
-    ex_.rows(n_, [&](size_t i0, size_t i1) {
-      for (size_t i = i0; i < i1; ++i)
-        for (int c = 0; c < 3; ++c) x[i][c] = src(i, c);
-    });
+    store(ex_, vec_.at(v), x);
   }
   void matvec(int y, int x, double a, double c, double d) override {
     gather(x);
@@ -169,13 +156,6 @@ class MpiKernels final : public Kernels<T> {
   }
 
  private:
-  void load(V& dst, const std::vector<Rgb>& src) {
-    ex_.rows(n_, [&](size_t i0, size_t i1) {
-      for (size_t i = i0; i < i1; ++i)
-        for (int c = 0; c < V::kChannels; ++c) dst(i, c) = T(src[i][c]);
-    });
-  }
-
   // Makes slot v whole on every rank: each rank's block of rows, gathered in place.
   void gather(int v) {
     if (full_.at(v)) return;
