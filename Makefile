@@ -126,7 +126,9 @@ $(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfa
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-# One GoogleTest binary per suite: build/tests/<suite>_tests.
+# One GoogleTest binary per suite: build/tests/<suite>_tests. Their objects are intermediate files of this pattern
+# rule, which make would delete after each build and compile again the next time: .SECONDARY keeps them.
+.SECONDARY:
 .SECONDEXPANSION:
 $(BUILD)/tests/%_tests: $$(call obj,$$(wildcard tests/unit/$$*/*.cpp)) $$(call mods,$$(SUITE_$$*))
 	@mkdir -p $(@D)
