@@ -1,9 +1,11 @@
 """make audit: re-runs a sample of recorded cases on this machine (the command line each record carries) and says,
-per case, whether the outcome matches the record and how the time compares."""
+per case, whether the outcome matches the record and how the time compares. The form-factor files a case reads
+are made first where they are missing (a fresh checkout), by the recorded case that wrote them."""
 import json
 import os
 import random
 import subprocess
+import sys
 
 import pandas as pd
 
@@ -29,6 +31,45 @@ def command(rec):
     if rec.get("params", {}).get("backend") == "mpi":
         out = ["mpirun", "-np", str(rec["params"]["ranks"]), *out]
     return out + ["--json", "--quiet"]
+
+
+def inputs(argv):
+    """The form-factor files a command reads."""
+    return [argv[k + 1] for k, a in enumerate(argv[:-1]) if a in ("--ff", "--reference-ff")]
+
+
+def maker_command(rec):
+    """The command of a recorded case that wrote a form-factor file: as recorded, -o kept (the file is what is
+    wanted), its record left out, under mpirun with its ranks where it ran on several."""
+    argv, out, skip = rec["argv"], [], False
+    for a in argv:
+        if skip:
+            skip = False
+        elif a == "--record":
+            skip = True
+        elif a != "--json":
+            out.append(a)
+    ranks = int(rec.get("params", {}).get("ranks", 1) or 1)
+    return (["mpirun", "-np", str(ranks)] if ranks > 1 else []) + out
+
+
+def make_inputs(rec, recs):
+    """Makes the form-factor files a case reads where they are missing (a fresh checkout has no build/ff) by the
+    recorded case that wrote them. Returns None, or why it could not."""
+    for path in inputs(rec["argv"]):
+        if (ROOT / path).exists():
+            continue
+        maker = next((r for r in recs if "-o" in r["argv"][:-1] and r["argv"][r["argv"].index("-o") + 1] == path),
+                     None)
+        if maker is None:
+            return f"{path} is missing and no record of this preset wrote it"
+        cmd = maker_command(maker)
+        print(f"audit: making {path}: {' '.join(cmd)}", file=sys.stderr, flush=True)
+        (ROOT / path).parent.mkdir(parents=True, exist_ok=True)
+        p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=dict(os.environ, **MPI_ENV))
+        if p.returncode != 0:
+            return f"making {path} failed: {p.stderr.strip()[:120]}"
+    return None
 
 
 def outcome(rec):
@@ -59,8 +100,14 @@ def run(preset, sample):
     rows, bad = [], 0
     for rec in recs[:sample]:
         cmd = command(rec)
-        p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=dict(os.environ, **MPI_ENV))
         row = {"case": rec["provenance"].get("env", {}).get("HPCGI_CASE", "-"), "command": " ".join(cmd[:-2])}
+        missing = make_inputs(rec, recs)
+        if missing:
+            row.update(match="FAILED", detail=missing)
+            bad += 1
+            rows.append(row)
+            continue
+        p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=dict(os.environ, **MPI_ENV))
         if p.returncode != 0:
             row.update(match="FAILED", detail=p.stderr.strip()[:120])
             bad += 1

@@ -22,13 +22,6 @@ def _median(df, col):
     return float(df[col].median())
 
 
-def _newest(recs):
-    """The records of the newest commit among a case's records: `REPEAT=10 make bench` adds repeats measured with
-    the code of now beside the older ones, which stay in the file as history."""
-    newest = recs.sort_values("provenance.utc")["provenance.git_commit"].iloc[-1]
-    return recs[recs["provenance.git_commit"] == newest]
-
-
 def _limit_next_to(stream, recs):
     """The triad bandwidth measured next to a case's records: the median of the last stream record at or before
     their first and the first at or after their last (either alone where the other is missing)."""
@@ -50,9 +43,8 @@ def rows(preset):
     def problem(title, entries):
         """entries: (solver, records, bytes per iteration or None, ours?); time / ours is against our fastest.
         Returns our fastest as (solver, records, bytes, ours, time, triad next to it) and the peers' times."""
-        entries = [(name, _newest(recs), b, mine) for name, recs, b, mine in entries if len(recs)]
         entries = [(name, recs, b, mine, _median(recs, "times_s.per_iteration"), _limit_next_to(stream, recs))
-                   for name, recs, b, mine in entries]
+                   for name, recs, b, mine in entries if len(recs)]
         ours = [e for e in entries if e[3]]
         if not ours:
             return None, {}
@@ -123,17 +115,15 @@ def rows(preset):
                        for v in ("float16", "bfloat16")]
             entries.append(("openmp float AOS, F in float32 (above)", f32, nbytes, True))
             problem(f"Jacobi step, room3.xml, F stored in 16 bits ({nbytes / 2e6:.0f} MB read)", entries)
-            t32 = _median(_newest(f32), "times_s.per_iteration")
+            t32 = _median(f32, "times_s.per_iteration")
             f16 = half[half["params.ff_precision"] == "float16"]
             if len(f16):
-                f16 = _newest(f16)
                 x = t32 / _median(f16, "times_s.per_iteration")
                 targets.append(f"Jacobi room3: F in float16 {x:.2f}x faster per step than in float32 (AOS; target >= "
                                f"{HALF_VS_FLOAT:g}x): {'met' if x >= HALF_VS_FLOAT else 'NOT met'}")
 
     hc = _on(load("bench-hemicube", preset), host)
     if len(hc):
-        hc = _newest(hc)
         pps = _median(hc, "perf.patches_per_s")
         out.append({"problem": f"Hemicube room3.xml R={int(hc['params.hemicube'].iloc[0])} (iteration = one patch)",
                     "solver": f"ours: {pps:.0f} patches/s, {_median(hc, 'times_s.hemicube'):.2f} s",

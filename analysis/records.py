@@ -31,8 +31,20 @@ def read_jsonl(path):
     return rows
 
 
-def load(experiment, preset=None):
-    """All records of an experiment (one preset, or every preset) as one flat frame: columns like 'params.n'."""
+def newest(df):
+    """Per case (the runner's HPCGI_CASE), only the records of the newest commit that ran it: a case re-run after a
+    change (`REPEAT=10` adds repeats 5..9) is told by the new code's numbers, and the older records stay in the file
+    as history. Records made outside the runner (no case) are all kept."""
+    case, commit = "provenance.env.HPCGI_CASE", "provenance.git_commit"
+    if df.empty or case not in df or commit not in df:
+        return df
+    last = df.sort_values("provenance.utc").groupby(case)[commit].last()
+    return df[df[case].isna() | (df[commit] == df[case].map(last))]
+
+
+def load(experiment, preset=None, history=False):
+    """The records of an experiment (one preset, or every preset) as one flat frame, columns like 'params.n': of
+    each case those of its newest commit (see newest), or with history=True all."""
     rows = []
     for f in sorted((RESULTS / experiment).glob(f"{preset or '*'}.jsonl")):
         for rec in read_jsonl(f):
@@ -41,7 +53,7 @@ def load(experiment, preset=None):
     df = pd.json_normalize(rows) if rows else pd.DataFrame()
     if "params.scene" in df.columns:
         df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name) if isinstance(s, str) else None)
-    return df
+    return df if history else newest(df)
 
 
 def skipped(experiment, preset):
