@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from analysis.records import newest
 from conftest import ROOT, run
 
 
@@ -184,3 +185,29 @@ def test_form_factor_file_deleted_between_tasks(tmp_path):
     # a re-run of both finds the file missing, makes it again, then finishes the solve
     assert run([ROOT / "slurm" / "run-local", "formfactors", "table42"], env=e).returncode == 0
     assert len(records(tmp_path, "formfactors")) == 2 and len(records(tmp_path, "table42")) == 2
+
+
+def test_audit_makes_the_form_factors_a_case_reads(tmp_path):
+    """make audit on a checkout without build/ff: the recorded case that wrote the file makes it again first."""
+    e = env(tmp_path, REPEAT="1")
+    assert run([ROOT / "slurm" / "run-local", "formfactors"], env=e).returncode == 0
+    assert run([ROOT / "slurm" / "run-case", "table42", "0"], env=e).returncode == 0
+    for f in (tmp_path / "ff").glob("*.ff"):
+        f.unlink()
+    p = run([ROOT / ".venv" / "bin" / "python", "-m", "analysis", "audit", "ci", "--sample", "100"], env=e,
+            cwd=ROOT)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "audit: making" in p.stderr and "ci-scene1.ff" in p.stderr, p.stderr
+    assert (tmp_path / "ff" / "ci-scene1.ff").exists()
+
+
+def test_each_case_is_told_by_its_newest_commit():
+    """A case re-run by newer code (more repeats) is told by those records; the older stay as history; records
+    made outside the runner (no case) are all kept."""
+    df = pd.DataFrame({
+        "provenance.env.HPCGI_CASE": ["a", "a", "a", "b", None, None],
+        "provenance.git_commit": ["old", "old", "new", "old", "x", "y"],
+        "provenance.utc": ["2026-01-01T00:00:00Z", "2026-01-01T00:00:01Z", "2026-02-01T00:00:00Z",
+                           "2026-01-01T00:00:02Z", "2026-01-01T00:00:03Z", "2026-03-01T00:00:00Z"],
+        "t": [1, 2, 3, 4, 5, 6]})
+    assert sorted(newest(df)["t"]) == [3, 4, 5, 6]
