@@ -58,10 +58,10 @@ struct BFloat16Values {
 };
 
 // How far ahead of its loads sums4 asks for each row of F. The hardware prefetcher alone kept a Jacobi step on
-// room3 (float32, 2 threads, this project's EPYC VM) at 14-17 ms; with 1 KiB to 4 KiB of software prefetch it ran
-// at 11-13 ms in the same alternating runs (the four rows are four streams that restart every row; the prefetcher
-// ramps up again on each). Asking again for a line on its way costs only an issue slot, and a prefetch past the
-// end of F never faults.
+// room3 (float32, 2 threads, this project's EPYC VM) at 13.4-17.4 ms; with 1 KiB to 4 KiB of software prefetch
+// it ran at 11.0-13.3 ms in the same alternating runs (the four rows are four streams that restart every row; the
+// prefetcher ramps up again on each). Asking again for a line on its way costs only an issue slot, and a prefetch
+// past the end of F never faults.
 inline constexpr size_t kPrefetchBytes = 2048;
 
 // Four rows' partial sums over m columns: s[r][ch] += Σ_j F_r[j] x_ch[j], F_r stored as Val, x one contiguous array
@@ -178,12 +178,12 @@ template <class Val, class V>
       y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s[2] + d * e(i, 2);
     }
   };
-  // The four rows of a group come from the four quarters of [k0, k1): group g sums rows k0 + g, k0 + L + g,
-  // k0 + 2L + g and k0 + 3L + g. So each of the four streams of F runs on from one row into the next, one long
-  // sequential sweep per quarter as in bin/stream's read sweep, instead of four streams that end every row. A row's
-  // sums do not depend on the rows beside it, so the grouping leaves the bits alone. A quarter that runs out
-  // repeats its group's first row in its place, so every row is summed by the same code (and a 16-bit row gives
-  // the bits of its float32 widening).
+  // The four rows of a group come from the four quarters of [k0, k1): group g sums rows k0 + g, k0 + q + g,
+  // k0 + 2q + g and k0 + 3q + g (q = quarter). So each of the four streams of F runs on from one row into the next,
+  // one long sequential sweep per quarter as in bin/stream's read sweep, instead of four streams that end every
+  // row. A row's sums do not depend on the rows beside it, so the grouping leaves the bits alone. A quarter that
+  // runs out repeats its group's first row in its place, so every row is summed by the same code (and a 16-bit row
+  // gives the bits of its float32 widening).
   const size_t quarter = (k1 - k0 + kGroup - 1) / kGroup;
   for (size_t g = 0; g < quarter; ++g) {
     size_t i[kGroup], rows_here = 1;
