@@ -73,7 +73,10 @@ RUNNER ?= local
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
                accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
                mpi-radiosity mpi-large
-.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench FORCE
+# Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
+# MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
+MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
+.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench scenes FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
 	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
@@ -83,13 +86,14 @@ help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
-	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make plots"
-	@echo "make resume     run (or submit) only the cases not yet recorded"
-	@echo "make plots      tables (results/tables) and plots (results/plots) from the records"
-	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy) here: results/tables/bench_PRESET.md"
-	@echo "make report     the reproduced report, report/REPORT-<preset>.md, from the tables and plots"
-	@echo "make audit      re-run a sample of recorded cases and compare (AUDIT_SAMPLE=5)"
-	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=..."
+	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make report"
+	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
+	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
+	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
+	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy) here: results/<machine>/tables/bench_PRESET.md"
+	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
+	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
+	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
@@ -162,14 +166,19 @@ test:
 
 # The study: the case lists of slurm/cases/$(PRESET), run locally (RUNNER=local: slurm/run-local, then the
 # tables, plots and report) or submitted as job arrays (RUNNER=slurm: slurm/submit, make plots chained after).
+# Locally it ends with the runner's summary (cases run, skipped and why, failed) and exits non-zero only if a case
+# failed; a case skipped for want of a GPU or of RRV's scenes is no failure.
 reproduce:
+	@echo "reproduce: machine $$(python3 common/machine_label.py) (records in results/<machine>/), preset $(PRESET), runner $(RUNNER)"
 	@common/deps.sh --check || common/deps.sh
 	@$(MAKE) --no-print-directory all
 ifeq ($(RUNNER),slurm)
 	PRESET=$(PRESET) slurm/submit $(EXPERIMENTS)
 else
-	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS); status=$$?; \
-	$(MAKE) --no-print-directory report PRESET=$(PRESET) && exit $$status
+	@mkdir -p $(BUILD); rm -f $(BUILD)/reproduce-summary.txt
+	PRESET=$(PRESET) HPCGI_SUMMARY_OUT=$(BUILD)/reproduce-summary.txt slurm/run-local $(EXPERIMENTS); status=$$?; \
+	$(MAKE) --no-print-directory report PRESET=$(PRESET) || status=1; \
+	echo; cat $(BUILD)/reproduce-summary.txt 2>/dev/null; exit $$status
 endif
 
 # Only what is missing or failed: locally the runner skips recorded cases anyway; on Slurm the missing indices.
@@ -189,15 +198,19 @@ bench:
 	PRESET=$(PRESET) slurm/bench
 
 plots:
-	$(VENV)/bin/python -m analysis tables $(PRESET)
+	$(VENV)/bin/python -m analysis tables $(PRESET) $(MACHINE_ARG)
 
 report: plots
-	$(VENV)/bin/python -m analysis report $(PRESET)
+	$(VENV)/bin/python -m analysis report $(PRESET) $(MACHINE_ARG)
+
+# RRV's scenes 3 and 4 from its public repository at one commit, checked by SHA-256 (RRV_URL=, SCENES_CACHE=).
+scenes:
+	radiosity/scenes/rrv/fetch
 
 # Re-runs a sample of recorded cases here and compares outcome and time with the records.
 AUDIT_SAMPLE ?= 5
 audit:
-	$(VENV)/bin/python -m analysis audit $(PRESET) --sample $(AUDIT_SAMPLE)
+	$(VENV)/bin/python -m analysis audit $(PRESET) --sample $(AUDIT_SAMPLE) $(MACHINE_ARG)
 
 clean:
 	rm -rf $(BUILD) $(BIN)

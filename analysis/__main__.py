@@ -1,12 +1,16 @@
-"""python -m analysis tables|report|audit PRESET [--sample N]
+"""python -m analysis tables|report|audit PRESET [--machine LABEL] [--sample N]
 
-  tables  every table (results/tables/*.csv, *.md) and plot (results/plots/*.png) from the records of PRESET
-  report  the reproduced report, report/REPORT-<preset>.md (run `tables` first; make report does)
-  audit   re-runs a sample of PRESET's recorded cases here and compares outcome and time with the records"""
+  tables  every table (results/<machine>/tables/*.csv, *.md) and plot (results/<machine>/plots/*.png) from the
+          machine's records of PRESET, beside the report's numbers and the reference machine's
+  report  the reproduced report, report/<machine>/REPORT-<preset>.md (run `tables` first; make report does), and
+          report/MACHINES.md, every machine with records side by side
+  audit   re-runs a sample of the machine's recorded cases here and compares outcome and time with the records
+
+The machine is --machine, else $MACHINE, else this machine's own label (common/machine_label.py)."""
 import argparse
 import sys
 
-from analysis import accuracy, audit, figure42, mpi_radiosity, radiosity_tables, report, table41
+from analysis import accuracy, audit, figure42, machines, mpi_radiosity, radiosity_tables, records, report, table41
 
 
 def main():
@@ -14,17 +18,30 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("command", choices=["tables", "report", "audit"])
     ap.add_argument("preset", nargs="?", default="quick")
+    ap.add_argument("--machine", help="whose records (default: $MACHINE, else this machine)")
     ap.add_argument("--sample", type=int, default=5, help="audit: how many recorded cases to re-run")
     a = ap.parse_args()
+    try:
+        if a.machine:
+            records.use(a.machine)
+        label = records.machine()
+    except ValueError as e:
+        print(f"analysis: {e}", file=sys.stderr)
+        return 2
     if a.command == "tables":
+        if not records.machine_dir().is_dir():
+            known = ", ".join(records.machines()) or "none"
+            print(f"analysis: no records of machine {label} in {records.RESULTS} (machines with records: {known}); "
+                  "tables are written for the machines' own records only", file=sys.stderr)
         made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset)}
         for name, out in made.items():
-            print(f"analysis: {name} ({a.preset}): {'no records' if out is None else 'written'}")
+            print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
         return 0
     if a.command == "report":
         print(f"analysis: wrote {report.write(a.preset)}")
+        print(f"analysis: wrote {machines.write(a.preset)}")
         return 0
     return audit.run(a.preset, a.sample)
 

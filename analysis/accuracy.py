@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.radiosity_tables import write  # noqa: E402
-from analysis.records import PLOTS, load  # noqa: E402
+from analysis.records import load, plots_dir  # noqa: E402
 
 SOLVER_SWEEPS = ("accuracy-tolerance", "accuracy-precision", "accuracy-threshold")
 FF_SWEEPS = ("accuracy-hemicube", "accuracy-mesh")
@@ -115,7 +115,7 @@ def swept_scenes(df):
 
 def plot(preset, df):
     hemicube = preset_hemicube(preset)
-    PLOTS.mkdir(parents=True, exist_ok=True)
+    plots_dir().mkdir(parents=True, exist_ok=True)
     made = []
     for scene, d in df[df["scene"].isin(swept_scenes(df))].groupby("scene"):
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -147,7 +147,7 @@ def plot(preset, df):
             ax.legend(fontsize=7)
         fig.suptitle(f"Speed against accuracy ({preset}): {scene}")
         fig.tight_layout()
-        out = PLOTS / f"accuracy_pareto_{scene}_{preset}.png"
+        out = plots_dir() / f"accuracy_pareto_{scene}_{preset}.png"
         fig.savefig(out, dpi=110)
         plt.close(fig)
         made.append(out)

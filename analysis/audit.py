@@ -9,7 +9,7 @@ import sys
 
 import pandas as pd
 
-from analysis.records import RESULTS, ROOT, read_jsonl
+from analysis.records import ROOT, machine_dir, read_jsonl
 
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1", "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 
@@ -91,7 +91,7 @@ def same(a, b):
 
 def run(preset, sample):
     recs = []
-    for f in sorted(RESULTS.glob(f"*/{preset}.jsonl")):
+    for f in sorted(machine_dir().glob(f"*/{preset}.jsonl")):
         recs += [r for r in read_jsonl(f) if "argv" in r]
     if not recs:
         print(f"audit: no records with a command line for preset {preset}")

@@ -2,12 +2,12 @@
 the newest bandwidth record): medians over repeats of our time per iteration, the bandwidth it implies as a
 fraction of the triad bandwidth measured next to it (slurm/bench measures the limit before every case: on a shared
 VM it drifts with the neighbours), and the peers' time over ours; then the targets of issue 7, met or not. Prints
-the table and writes $RESULTS/tables/bench_PRESET.md."""
+the table and writes $RESULTS/<machine>/tables/bench_PRESET.md."""
 import sys
 
 import pandas as pd
 
-from analysis.records import TABLES, load
+from analysis.records import load, tables_dir
 
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
 # of 4·N² bytes at the triad bandwidth, >= 2.5x the best NumPy way, and >= 1.7x faster with F in float16.
@@ -163,8 +163,8 @@ def write(preset):
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "
             f"same problem (peer/ours, > 1: ours is faster).")
     text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
-    TABLES.mkdir(parents=True, exist_ok=True)
-    path = TABLES / f"bench_{preset}.md"
+    tables_dir().mkdir(parents=True, exist_ok=True)
+    path = tables_dir() / f"bench_{preset}.md"
     path.write_text(text)
     return text, path
 

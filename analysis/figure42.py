@@ -6,13 +6,13 @@ matplotlib.use("Agg")
 import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 
-from analysis.records import PLOTS, RESULTS  # noqa: E402
+from analysis.records import machine_dir, plots_dir  # noqa: E402
 
 STEPS = (1, 2, 4, 8, 32)
 
 
 def write(preset):
-    files = [RESULTS / "figure42" / preset / f"room3_iter{k}.png" for k in STEPS]
+    files = [machine_dir() / "figure42" / preset / f"room3_iter{k}.png" for k in STEPS]
     if not all(f.exists() for f in files):
         return None
     fig, axes = plt.subplots(1, len(STEPS), figsize=(3 * len(STEPS), 2.6))
@@ -22,8 +22,8 @@ def write(preset):
         ax.axis("off")
     fig.suptitle(f"Figure 4.2 ({preset}): room3.xml during Jacobi")
     fig.tight_layout()
-    PLOTS.mkdir(parents=True, exist_ok=True)
-    out = PLOTS / f"figure42_{preset}.png"
+    plots_dir().mkdir(parents=True, exist_ok=True)
+    out = plots_dir() / f"figure42_{preset}.png"
     fig.savefig(out, dpi=100)
     plt.close(fig)
     return out

@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.records import PLOTS, TABLES, load  # noqa: E402
+from analysis.records import load, plots_dir, tables_dir  # noqa: E402
 
 MIB = 2.0 ** 20
 
@@ -134,7 +134,7 @@ def growth_notes(ff, sv):
 
 
 def plot(ff, sv, preset):
-    PLOTS.mkdir(parents=True, exist_ok=True)
+    plots_dir().mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     ax = axes[0]
     for (ser, meth), g in sv[sv["series"].isin(["strong", "weak"])].groupby(["series", "params.method"]):
@@ -174,7 +174,7 @@ def plot(ff, sv, preset):
                    color="grey")
     fig.suptitle(f"Radiosity across MPI ranks ({preset})")
     fig.tight_layout()
-    fig.savefig(PLOTS / f"mpi_radiosity_{preset}.png", dpi=110)
+    fig.savefig(plots_dir() / f"mpi_radiosity_{preset}.png", dpi=110)
     plt.close(fig)
 
 
@@ -182,7 +182,7 @@ def write_table(preset):
     ff, sv = records(preset)
     if ff.empty and sv.empty:
         return None
-    TABLES.mkdir(parents=True, exist_ok=True)
+    tables_dir().mkdir(parents=True, exist_ok=True)
     out = [f"### Radiosity across MPI ranks ({preset})", ""]
     frames = []
     if not ff.empty:
@@ -203,9 +203,9 @@ def write_table(preset):
         "(provenance.cpus_online), ranks share cores: times past that count measure oversubscription; the memory "
         "per rank does not depend on it."]
     out += [f"- {n}" for n in notes]
-    pd.concat(frames, ignore_index=True).to_csv(TABLES / f"mpi_radiosity_{preset}.csv", index=False)
+    pd.concat(frames, ignore_index=True).to_csv(tables_dir() / f"mpi_radiosity_{preset}.csv", index=False)
     text = "\n".join(out).replace(" nan ", " — ") + "\n"
-    (TABLES / f"mpi_radiosity_{preset}.md").write_text(text)
+    (tables_dir() / f"mpi_radiosity_{preset}.md").write_text(text)
     return text
 
 

@@ -6,7 +6,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.records import PLOTS, TABLES, load, paper_table, skipped, summarise  # noqa: E402
+from analysis.records import (load, machine, on, paper_table, plots_dir, reference, skipped, summarise,  # noqa: E402
+                              tables_dir, writing)
 
 
 def run_time(df):
@@ -38,11 +39,18 @@ def column_of(r):
 
 
 def no_gpu_note(experiment, preset):
+    """What the runner skipped on this machine and why, one sentence per reason."""
     s = skipped(experiment, preset)
     if s.empty:
         return ""
     hosts = ", ".join(sorted(set(s["host"])))
-    return f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them."
+    notes = []
+    if (s["reason"] == "no GPU on this machine").any():
+        notes.append(f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them.")
+    if (s["reason"] == "no RRV scenes").any():
+        notes.append("No RRV scenes on this machine: the cases of scenes 3 and 4 (RRV's room3.xml and room2.xml) were "
+                     "not run (`make scenes` fetches them), and no number stands in for them.")
+    return " ".join(notes)
 
 
 def compare(ours, paper, key, columns):
@@ -67,15 +75,57 @@ def markdown(title, table, notes):
     return "\n".join([f"### {title}", "", body, "", *[n for n in notes if n]]) + "\n"
 
 
+def beside(mine, ref, key, label):
+    """This machine's table with the reference machine's "ours" numbers beside each of its own: for every column
+    "ours X", a column "<label> X" and "ours/<label> X" (the ratios to the report stay this machine's)."""
+    cols = []
+    r = ref.set_index(key)
+    for c in mine.columns:
+        cols.append(c)
+        if c.startswith("ours "):
+            what = c[len("ours "):]
+            mine[f"{label} {what}"] = mine[key].map(r[c]) if c in r.columns else np.nan
+            mine[f"ours/{label} {what}"] = mine[c] / mine[f"{label} {what}"]
+            cols += [f"{label} {what}", f"ours/{label} {what}"]
+    return mine[cols]
+
+
+def emit(name, preset, build, key):
+    """Builds a table on the current machine (build(preset) -> (title, table, notes, detail) or None), puts the
+    reference machine's numbers beside it when the current machine is another, and writes it: the csv holds the
+    detail (this machine's summaries), the md the table as the report shows it."""
+    got = build(preset)
+    if got is None:
+        return None
+    title, table, notes, detail = got
+    ref = reference()
+    if ref and ref != machine():
+        with on(ref):
+            theirs = build(preset)
+        title += f", on {machine()} beside the reference machine {ref}"
+        if theirs is None:
+            notes = [*notes, f"The reference machine {ref} has no records of this table."]
+        else:
+            table = beside(table.copy(), theirs[1], key, "ref")
+            notes = [*notes, f"ours: this machine ({machine()}); ref: the reference machine {ref} (results/{ref}/), "
+                             "with its own records; ours/ref: this machine's time over the reference's."]
+    return write(name, preset, title, table, notes, detail)
+
+
 def write(name, preset, title, table, notes, detail=None):
-    TABLES.mkdir(parents=True, exist_ok=True)
-    (detail if detail is not None else table).to_csv(TABLES / f"{name}_{preset}.csv", index=False)
     text = markdown(title, table, notes)
-    (TABLES / f"{name}_{preset}.md").write_text(text)
+    if writing():
+        tables_dir().mkdir(parents=True, exist_ok=True)
+        (detail if detail is not None else table).to_csv(tables_dir() / f"{name}_{preset}.csv", index=False)
+        (tables_dir() / f"{name}_{preset}.md").write_text(text)
     return text
 
 
 def table42(preset):
+    return emit("table42", preset, build_table42, "scene")
+
+
+def build_table42(preset):
     df = solves("table42", preset)
     if df.empty:
         return None
@@ -96,8 +146,8 @@ def table42(preset):
             row[f"ours {m} s"] = o["median"].iloc[0] if len(o) else np.nan
             row[f"report {m} s"] = p[f"{m}_s"].iloc[0] if len(p) else np.nan
         rows.append(row)
-    return write("table42", preset, f"Table 4.2 ({preset}): OpenMP Jacobi vs. BiCG-STAB to 1e-6 (run time in s)",
-                 pd.DataFrame(rows), [threads_note(df)], detail=t)
+    return (f"Table 4.2 ({preset}): OpenMP Jacobi vs. BiCG-STAB to 1e-6 (run time in s)", pd.DataFrame(rows),
+            [threads_note(df), no_gpu_note("table42", preset)], t)
 
 
 def threads_note(df):
@@ -107,6 +157,10 @@ def threads_note(df):
 
 
 def aos_soa(name, preset, layout, columns, extra=()):
+    return emit(name, preset, lambda p: build_aos_soa(name, p, layout, columns, extra), "scene")
+
+
+def build_aos_soa(name, preset, layout, columns, extra=()):
     df = solves(name, preset)
     orig = solves("table43", preset) if name == "table44" else pd.DataFrame()
     if not orig.empty:  # the report repeats the AOS Original column in Table 4.4
@@ -119,12 +173,15 @@ def aos_soa(name, preset, layout, columns, extra=()):
         o = s[s["column"] == c].set_index("scene")["median"]
         table[f"ours {c}"] = table["scene"].map(o)
     title = f"Table {name[-2]}.{name[-1]} ({preset}): {layout} Jacobi to 1e-6, run time in s"
-    return write(name, preset, title, table, [threads_note(df), no_gpu_note(name, preset),
-                                              "Original: RRV's loop for the report's Jacobi iterations of that scene."],
-                 detail=s)
+    return title, table, [threads_note(df), no_gpu_note(name, preset),
+                          "Original: RRV's loop for the report's Jacobi iterations of that scene."], s
 
 
 def table45(preset):
+    return emit("table45", preset, build_table45, "distribution")
+
+
+def build_table45(preset):
     df = solves("table45", preset)
     paper = paper_table("table45")
     note = no_gpu_note("table45", preset)
@@ -132,7 +189,10 @@ def table45(preset):
     table = paper.rename(columns={"runtime_s": "report s"})
     table["ours s"] = table["distribution"].map(s.set_index("params.distribution")["median"]) if len(s) else np.nan
     table["ratio"] = table["ours s"] / table["report s"]
-    PLOTS.mkdir(parents=True, exist_ok=True)
+    title = f"Table 4.5 ({preset}): hybrid CPU/GPU Jacobi, run time in s"
+    if not writing():
+        return title, table, [note], s if len(s) else table
+    plots_dir().mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     ax.plot(paper["distribution"], paper["runtime_s"], "x--", label="report (scene 4, K20 + 16 cores)")
     if len(s):
@@ -146,10 +206,9 @@ def table45(preset):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(PLOTS / f"table45_{preset}.png", dpi=120)
+    fig.savefig(plots_dir() / f"table45_{preset}.png", dpi=120)
     plt.close(fig)
-    return write("table45", preset, f"Table 4.5 ({preset}): hybrid CPU/GPU Jacobi, run time in s", table, [note],
-                 detail=s if len(s) else table)
+    return title, table, [note], s if len(s) else table
 
 
 def write_all(preset):

@@ -15,7 +15,8 @@ ROOT = Path(__file__).resolve().parent.parent
 # The environment that decides threads and placement, and the harness's case identifiers (as record.cpp keeps).
 ENV_KEYS = ("OMP_NUM_THREADS", "OMP_PROC_BIND", "OMP_PLACES", "OPENBLAS_NUM_THREADS", "SLURM_JOB_ID",
             "SLURM_ARRAY_JOB_ID", "SLURM_ARRAY_TASK_ID", "SLURM_JOB_PARTITION", "SLURM_CLUSTER_NAME",
-            "SLURM_NTASKS", "SLURM_JOB_NODELIST", "HPCGI_EXPERIMENT", "HPCGI_PRESET", "HPCGI_CASE", "HPCGI_REPEAT")
+            "SLURM_NTASKS", "SLURM_JOB_NODELIST", "HPCGI_EXPERIMENT", "HPCGI_PRESET", "HPCGI_CASE", "HPCGI_REPEAT",
+            "HPCGI_MACHINE")
 
 
 def _git(*args):

@@ -1,4 +1,11 @@
-"""Loading run records (JSON Lines) into flat pandas frames, and summarising repeats."""
+"""Loading run records (JSON Lines) into flat pandas frames, and summarising repeats.
+
+Records belong to the machine that made them: results/<machine>/<experiment>/<preset>.jsonl, one folder per
+machine label (common/machine_label.py). Everything here reads and writes for one machine at a time, the current
+one (`machine()`: set by `use(label)`, else $MACHINE, else this machine's label); `on(label)` switches to another
+for a while (the reference machine's numbers beside this machine's), without writing any file for it."""
+import contextlib
+import importlib.util
 import json
 import os
 from pathlib import Path
@@ -10,10 +17,72 @@ ROOT = Path(__file__).resolve().parent.parent
 # Records, tables and plots live in $RESULTS (default results/), the report's published numbers in results/paper.
 RESULTS = Path(os.environ.get("RESULTS", ROOT / "results")).resolve()
 PAPER = ROOT / "results" / "paper"
-TABLES = RESULTS / "tables"
-PLOTS = RESULTS / "plots"
-# The reproduced report goes to report/ for the project's own results, beside the records for any other folder.
-REPORT = ROOT / "report" if RESULTS == (ROOT / "results").resolve() else RESULTS / "report"
+
+_spec = importlib.util.spec_from_file_location("machine_label", ROOT / "common" / "machine_label.py")
+machine_label = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(machine_label)
+
+_state = {"machine": None, "write": True}
+
+
+def use(label):
+    """Makes `label` the current machine (checked as a folder name)."""
+    _state["machine"] = machine_label.check(label)
+
+
+def machine():
+    """The current machine's label: as set by use(), else $MACHINE, else this machine's own."""
+    if _state["machine"] is None:
+        _state["machine"] = machine_label.this_machine()
+    return _state["machine"]
+
+
+def reference():
+    """The reference machine every report compares against (results/REFERENCE), or None where there is none."""
+    f = RESULTS / "REFERENCE"
+    label = f.read_text().strip() if f.exists() else ""
+    return label if label and (RESULTS / label).is_dir() else None
+
+
+def machines():
+    """Every machine with a folder of records in results/, sorted."""
+    return sorted(d.name for d in RESULTS.iterdir() if d.is_dir() and d.name not in machine_label.RESERVED
+                  and not d.name.startswith(".")) if RESULTS.is_dir() else []
+
+
+@contextlib.contextmanager
+def on(label, write=False):
+    """Reads another machine's records for a while; its tables and plots are not written unless write=True."""
+    saved = dict(_state)
+    _state.update(machine=label, write=write)
+    try:
+        yield
+    finally:
+        _state.update(saved)
+
+
+def writing():
+    """Whether tables and plots are written now (not while another machine is read beside this one)."""
+    return _state["write"]
+
+
+def machine_dir(label=None):
+    return RESULTS / (label or machine())
+
+
+def tables_dir():
+    return machine_dir() / "tables"
+
+
+def plots_dir():
+    return machine_dir() / "plots"
+
+
+def report_dir():
+    """The reproduced report of the current machine: report/<machine>/ for the project's own results, beside the
+    records for any other results folder."""
+    top = ROOT / "report" if RESULTS == (ROOT / "results").resolve() else RESULTS / "report"
+    return top / machine()
 
 # The report's scene numbers: 1 and 2 are our scenes, 3 and 4 RRV's rooms.
 SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
@@ -43,10 +112,10 @@ def newest(df):
 
 
 def load(experiment, preset=None, history=False):
-    """The records of an experiment (one preset, or every preset) as one flat frame, columns like 'params.n': of
-    each case those of its newest commit (see newest), or with history=True all."""
+    """The current machine's records of an experiment (one preset, or every preset) as one flat frame, columns like
+    'params.n': of each case those of its newest commit (see newest), or with history=True all."""
     rows = []
-    for f in sorted((RESULTS / experiment).glob(f"{preset or '*'}.jsonl")):
+    for f in sorted((machine_dir() / experiment).glob(f"{preset or '*'}.jsonl")):
         for rec in read_jsonl(f):
             rec["file"] = str(f)
             rows.append(rec)
@@ -57,9 +126,14 @@ def load(experiment, preset=None, history=False):
 
 
 def skipped(experiment, preset):
-    """Cases the runner skipped (a GPU case on a machine without one), as a frame with case, host and reason."""
-    f = RESULTS / experiment / f"{preset}.skipped"
-    return pd.DataFrame(read_jsonl(f)) if f.exists() else pd.DataFrame(columns=["case", "host", "utc", "reason"])
+    """Cases the runner skipped on the current machine (a GPU case on a machine without one, a case of RRV's scenes
+    where there were none) and that have no record since, as a frame with case, host, reason."""
+    f = machine_dir() / experiment / f"{preset}.skipped"
+    s = pd.DataFrame(read_jsonl(f)) if f.exists() else pd.DataFrame(columns=["case", "host", "utc", "reason"])
+    done = load(experiment, preset, history=True)
+    if len(s) and not done.empty and "provenance.env.HPCGI_CASE" in done:
+        s = s[~s["case"].isin(set(done["provenance.env.HPCGI_CASE"].dropna()))]
+    return s.drop_duplicates("case", keep="last") if len(s) else s
 
 
 def paper_table(name):

@@ -1,11 +1,13 @@
-"""The reproduced report: report/REPORT-<preset>.md with the machine's provenance, every table and figure beside
-the report's numbers, and for each claim of the report whether our records confirm it, refute it, or cannot say."""
+"""The reproduced report of one machine: report/<machine>/REPORT-<preset>.md with the machine's provenance, every
+table and figure beside the report's numbers (and the reference machine's, for any other machine), and for each
+claim of the report whether this machine's records confirm it, refute it, or cannot say, the reference machine's
+verdict beside it."""
 import os
 
 import pandas as pd
 
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41
-from analysis.records import PLOTS, REPORT, ROOT, TABLES, load
+from analysis.records import load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, tables_dir
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
                "mpi-radiosity", "mpi-large")
@@ -128,28 +130,67 @@ CLAIMS = [
 
 
 def include(name, preset):
-    f = TABLES / f"{name}_{preset}.md"
+    f = tables_dir() / f"{name}_{preset}.md"
     return f.read_text() if f.exists() else f"### {name}\n\nNo records for this preset yet.\n"
 
 
 def image(name, preset, alt):
-    f = PLOTS / f"{name}_{preset}.png"
-    return f"![{alt}]({os.path.relpath(f, REPORT)})\n" if f.exists() else f"({alt}: no records yet)\n"
+    f = plots_dir() / f"{name}_{preset}.png"
+    return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records yet)\n"
+
+
+def not_run(preset):
+    """What the runner skipped on this machine, per experiment and reason (no GPU, no RRV scenes)."""
+    rows = []
+    for f in sorted(machine_dir().glob(f"*/{preset}.skipped")):
+        s = skipped(f.parent.name, preset)
+        for reason, g in (s.groupby("reason") if len(s) else ()):
+            rows.append(f"| {f.parent.name} | {len(g)} | {reason} |")
+    if not rows:
+        return ["Every case of this preset ran on this machine."]
+    out = ["| experiment | cases skipped | why |", "|---|---|---|", *rows, ""]
+    if any("no RRV scenes" in r for r in rows):
+        out.append("The experiments with \"no RRV scenes\" lack scenes 3 and 4 (RRV's room3.xml and room2.xml): "
+                   "`make scenes` fetches them, then `make resume` runs what is missing.")
+    return out
+
+
+def claims(preset):
+    """The claims table: this machine's verdicts, and for any other machine than the reference the reference's."""
+    ref = reference()
+    other = ref if ref and ref != machine() else None
+    head = "| claim | our data | the numbers that decide it |" + (f" reference {other} |" if other else "")
+    rows = [head, "|---|---|---|" + ("---|" if other else "")]
+    for text, fn in CLAIMS:
+        verdict, why = fn(preset)
+        row = f"| {text} | {verdict} | {why} |"
+        if other:
+            with on(other):
+                row += f" {fn(preset)[0]} |"
+        rows.append(row)
+    return rows
 
 
 def write(preset):
     prov, n = provenance(preset)
-    out = [f"# Reproduced report ({preset} preset)", "",
+    ref = reference()
+    if ref == machine():
+        whose = f"This is the reference machine ({ref}), which every other machine's report is set beside."
+    elif ref:
+        whose = (f"Each table sets this machine's numbers (ours) beside the reference machine's ({ref}, "
+                 f"`results/{ref}/`) and the report's; each claim is decided on this machine's records, the "
+                 "reference's verdict beside it.")
+    else:
+        whose = "There is no reference machine's record folder here to set these numbers beside."
+    out = [f"# Reproduced report ({preset} preset) on {machine()}", "",
            "The report: *Real Time Global Illumination Solutions to the Radiosity Algorithm using Hybrid CPU/GPU "
-           "Nodes* (UMBC HPCF-2014-15). Every number below comes from the records in `results/` (made by "
-           f"`make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from `results/paper/`. "
-           "Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core Intel E5-2650v2 "
-           "and an NVIDIA K20), so ratios of times compare machines as much as codes.", "",
+           f"Nodes* (UMBC HPCF-2014-15). Every number below comes from this machine's records in `results/{machine()}/` "
+           f"(made by `make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from "
+           "`results/paper/`. Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core "
+           "Intel E5-2650v2 and an NVIDIA K20), so ratios of times compare machines as much as codes. " + whose, "",
            "## Machine and provenance", "", *prov, "",
-           "## Claims of the report", "", "| claim | our data | the numbers that decide it |", "|---|---|---|"]
-    for text, fn in CLAIMS:
-        verdict, why = fn(preset)
-        out.append(f"| {text} | {verdict} | {why} |")
+           "## Cases not run on this machine", "", *not_run(preset), "",
+           "## Claims of the report", "", *claims(preset)]
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
@@ -157,7 +198,7 @@ def write(preset):
             *accuracy.report_section(preset, include, image), "",
             *mpi_radiosity.report_section(preset, include, image),
             "## Performance: the bandwidth limit and the peers (`make bench`)", "", include("bench", preset)]
-    path = REPORT / f"REPORT-{preset}.md"
+    path = report_dir() / f"REPORT-{preset}.md"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(out) + "\n")
     return path

@@ -79,7 +79,8 @@ nlohmann::json provenance() {
 #endif
   for (const char* v : {"OMP_NUM_THREADS", "OMP_PROC_BIND", "OMP_PLACES", "SLURM_JOB_ID", "SLURM_ARRAY_JOB_ID",
                         "SLURM_ARRAY_TASK_ID", "SLURM_JOB_PARTITION", "SLURM_CLUSTER_NAME", "SLURM_NTASKS",
-                        "SLURM_JOB_NODELIST", "HPCGI_EXPERIMENT", "HPCGI_PRESET", "HPCGI_CASE", "HPCGI_REPEAT"}) {
+                        "SLURM_JOB_NODELIST", "HPCGI_EXPERIMENT", "HPCGI_PRESET", "HPCGI_CASE", "HPCGI_REPEAT",
+                        "HPCGI_MACHINE"}) {
     std::string s = env_or_empty(v);
     if (!s.empty()) p["env"][v] = s;
   }

@@ -114,8 +114,8 @@ def test_peers_help_exits_0():
 
 def test_bench_table_from_records(tmp_path):
     """analysis.bench on a few records: ratios against the triad limit and the peers, targets judged."""
-    res = tmp_path / "results"
-    env = dict(os.environ, RESULTS=str(res))
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    res = tmp_path / "results" / "bench-test"
     p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
     assert p.returncode == 0, p.stderr
     for args in (["--n", "2048", "--variant", "onesweep"], ["--n", "2048", "--variant", "classic"]):

@@ -16,12 +16,21 @@ from analysis.records import newest
 from conftest import ROOT, run
 
 
+MACHINE = "ci-test-machine"
+
+
 def env(tmp_path, **kw):
-    return {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", **kw}
+    return {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "MACHINE": MACHINE,
+            **kw}
+
+
+def mdir(tmp_path):
+    """The test machine's folder of records."""
+    return tmp_path / "results" / MACHINE
 
 
 def records(tmp_path, exp):
-    f = tmp_path / "results" / exp / "ci.jsonl"
+    f = mdir(tmp_path) / exp / "ci.jsonl"
     return [json.loads(line) for line in f.read_text().splitlines()] if f.exists() else []
 
 
@@ -35,7 +44,7 @@ def check_once_each(tmp_path, exp, repeat):
     recs = records(tmp_path, exp)
     keys = Counter((r["provenance"]["env"]["HPCGI_CASE"], r["provenance"]["env"]["HPCGI_REPEAT"]) for r in recs)
     assert all(c == 1 for c in keys.values()), keys
-    skipped_file = tmp_path / "results" / exp / "ci.skipped"
+    skipped_file = mdir(tmp_path) / exp / "ci.skipped"
     skipped = {json.loads(l)["case"] for l in skipped_file.read_text().splitlines()} if skipped_file.exists() else set()
     done = {c for c, _ in keys}
     assert len(done | skipped) == len(cases(exp))
@@ -64,7 +73,7 @@ def test_killed_runner_then_rerun_leaves_valid_records_and_no_duplicates(tmp_pat
     e = dict(os.environ, **env(tmp_path, REPEAT="20"))
     p = subprocess.Popen([ROOT / "slurm" / "run-local", "table41"], env=e, cwd=ROOT, start_new_session=True,
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    f = tmp_path / "results" / "table41" / "ci.jsonl"
+    f = mdir(tmp_path) / "table41" / "ci.jsonl"
     deadline = time.time() + 120
     while time.time() < deadline and (not f.exists() or len(f.read_text().splitlines()) < 7):
         time.sleep(0.05)
@@ -102,7 +111,7 @@ def test_job_arrays_under_slurm_then_make_plots(tmp_path, cluster):
         recs = check_once_each(tmp_path, exp, 1)
         assert all(r["provenance"]["env"].get("SLURM_ARRAY_JOB_ID") for r in recs), "records must come from the array"
     # the aggregation job ran make plots after the arrays: every table cell that has a case has a value
-    tables = tmp_path / "results" / "tables"
+    tables = mdir(tmp_path) / "tables"
     t41 = pd.read_csv(tables / "table41_ci.csv")
     assert set(t41["n"]) == {16, 32} and t41["median"].notna().all()
     assert {"p1", "p2", "openmp"} <= set(t41["column"])
@@ -110,8 +119,8 @@ def test_job_arrays_under_slurm_then_make_plots(tmp_path, cluster):
     assert len(t42) == 2 and t42["median"].notna().all()
     md = (tables / "table41_ci.md").read_text()
     assert "No GPU on this machine" in md
-    assert (tmp_path / "results" / "plots" / "figure41_ci.png").stat().st_size > 0
-    assert (tmp_path / "results" / "report" / "REPORT-ci.md").exists()
+    assert (mdir(tmp_path) / "plots" / "figure41_ci.png").stat().st_size > 0
+    assert (tmp_path / "results" / "report" / MACHINE / "REPORT-ci.md").exists()
     assert len(list((tmp_path / "logs").glob("aggregate_*.out"))) == 1
 
 
@@ -119,7 +128,7 @@ def test_task_past_its_time_limit_leaves_no_record_and_says_so(tmp_path):
     # Slurm ends a task past its time limit with SIGTERM, then SIGKILL; `timeout` does the same here, to the
     # quick preset's N = 1024 run on one MPI rank (seconds long).
     e = env(tmp_path, REPEAT="1", PRESET="quick")
-    f = tmp_path / "results" / "table41" / "quick.jsonl"
+    f = mdir(tmp_path) / "table41" / "quick.jsonl"
     p = run(["timeout", "-s", "TERM", "0.5", ROOT / "slurm" / "run-case", "table41", "4"], env=e)
     assert p.returncode != 0 and not f.exists()
     p = run([ROOT / "slurm" / "run-case", "table41", "4"], env=e)
@@ -157,7 +166,7 @@ def test_program_killed_by_a_signal_is_named(tmp_path):
     out, err = p.communicate(timeout=60)
     assert p.returncode != 0, out
     assert "repeat 0" in err and ("killed by signal" in err or "failed" in err), err
-    assert not (tmp_path / "results" / "table41" / "quick.jsonl").exists()
+    assert not (mdir(tmp_path) / "table41" / "quick.jsonl").exists()
 
 
 def test_full_disk_while_writing_a_record_leaves_the_file_valid(tmp_path):
@@ -165,7 +174,7 @@ def test_full_disk_while_writing_a_record_leaves_the_file_valid(tmp_path):
     # a single-process one: mpirun itself cannot start under such a limit.
     e = env(tmp_path, REPEAT="3")
     assert run([ROOT / "slurm" / "run-case", "table41", "4"], env={**e, "REPEAT": "1"}).returncode == 0
-    f = tmp_path / "results" / "table41" / "ci.jsonl"
+    f = mdir(tmp_path) / "table41" / "ci.jsonl"
     size_kb = f.stat().st_size // 1024 + 1
     p = run(["bash", "-c", f"trap '' XFSZ; ulimit -f {size_kb}; exec {ROOT}/slurm/run-case table41 4"], env=e)
     assert p.returncode != 0 and "cannot append record" in p.stderr, p.stderr

@@ -265,15 +265,16 @@ def test_too_large_for_one_rank_is_computed_and_solved_on_four(large, tmp_path):
 def test_ci_case_lists_run_on_the_local_runner_and_make_the_table(tmp_path):
     """The experiments of make reproduce (mpi-formfactors, mpi-radiosity, mpi-large) at the ci preset, through
     slurm/run-local as an array task would run them, then their table and plot."""
-    e = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "REPEAT": "1"}
+    e = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "REPEAT": "1",
+         "MACHINE": "mpi-test"}
     p = run([ROOT / "slurm" / "run-local", "mpi-formfactors", "mpi-radiosity", "mpi-large"], env=e, timeout=600)
     assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
     ff = sorted((tmp_path / "ff").glob("ci-mpi-scene1-P*.ff"))
     assert len(ff) == 3 and len({f.read_bytes() for f in ff}) == 1  # P = 1, 2 and the equal-count split: one file
     p = run([sys.executable, "-m", "analysis", "tables", "ci"], env=e, cwd=ROOT, timeout=300)
     assert p.returncode == 0, p.stderr
-    t = pd.read_csv(tmp_path / "results" / "tables" / "mpi_radiosity_ci.csv")
+    t = pd.read_csv(tmp_path / "results" / "mpi-test" / "tables" / "mpi_radiosity_ci.csv")
     solves = t[t["command"] == "solve"]
     assert {"strong", "weak", "large", "one process"} <= set(solves["series"])
     assert solves["agreed"].all()
-    assert (tmp_path / "results" / "plots" / "mpi_radiosity_ci.png").stat().st_size > 0
+    assert (tmp_path / "results" / "mpi-test" / "plots" / "mpi_radiosity_ci.png").stat().st_size > 0

@@ -1,0 +1,75 @@
+"""report/MACHINES.md: every machine with records in results/, its provenance and its headline numbers side by side
+(Table 4.1 at N = 1024, Table 4.2 on scene 3, a Jacobi step of room3, the triad bandwidth), each from that
+machine's own records."""
+import json
+
+import pandas as pd
+
+from analysis import radiosity_tables, table41
+from analysis.records import load, machine_dir, machines, on, reference, report_dir
+
+
+def describe(label):
+    """What machine.json (written by the runner) says of a machine, else what its records' provenance says."""
+    f = machine_dir(label) / "machine.json"
+    if f.exists():
+        d = json.loads(f.read_text())
+        return d.get("host"), d.get("cpu_model"), d.get("cpus_online"), d.get("gpu")
+    for exp in ("table41", "table42", "formfactors", "bench-stream"):
+        df = load(exp)
+        if not df.empty:
+            last = df.sort_values("provenance.utc").iloc[-1]
+            gpu = last.get("backend_info.gpu") if "backend_info.gpu" in df else None
+            return last["provenance.host"], last["provenance.cpu_model"], last["provenance.cpus_online"], gpu
+    return None, None, None, None
+
+
+def headline(preset):
+    """The current machine's headline numbers (NaN where it has no records of them)."""
+    nan = float("nan")
+    row = {"T4.1 N=1024 s": nan, "T4.1 column": "", "T4.2 scene 3 Jacobi s": nan, "T4.2 scene 3 BiCG-STAB s": nan,
+           "Jacobi step room3 ms": nan, "triad GB/s": nan, "records": 0}
+    _, s41 = table41.ours(preset)
+    at = s41[s41["n"] == 1024] if not s41.empty else s41
+    if len(at):
+        best = at.loc[at["median"].idxmin()]
+        row["T4.1 N=1024 s"], row["T4.1 column"] = best["median"], best["column"]
+    t42 = radiosity_tables.solves("table42", preset)
+    if not t42.empty:
+        s3 = t42[t42["scene_id"] == 3]
+        for m, col in (("jacobi", "T4.2 scene 3 Jacobi s"), ("bicgstab", "T4.2 scene 3 BiCG-STAB s")):
+            if (s3["params.method"] == m).any():
+                row[col] = s3[s3["params.method"] == m]["time_s"].median()
+    jac = load("bench-jacobi", preset)
+    if not jac.empty and "params.storage" in jac:
+        ours = jac[(jac["app"] == "radiosity") & (jac["params.ff_precision"] == "float32")]
+        if len(ours):
+            row["Jacobi step room3 ms"] = 1e3 * ours.groupby("provenance.env.HPCGI_CASE")["times_s.per_iteration"].median().min()
+    st = load("bench-stream", preset)
+    if not st.empty:
+        row["triad GB/s"] = st["perf.triad_GBps"].median()
+    row["records"] = sum(len(load(e, preset)) for e in ("table41", "table42", "table43", "table44", "table45"))
+    return row
+
+
+def write(preset):
+    ref = reference()
+    rows = []
+    for label in machines():
+        with on(label):
+            host, cpu, cpus, gpu = describe(label)
+            row = {"machine": label + (" (reference)" if label == ref else ""), "host": host, "CPU": cpu,
+                   "CPUs": cpus, "GPU": gpu or "none", **headline(preset)}
+        rows.append(row)
+    out = report_dir().parent / "MACHINES.md"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    body = pd.DataFrame(rows).to_markdown(index=False, floatfmt=".4g").replace(" nan ", " — ") if rows else "none"
+    out.write_text(
+        f"# Machines with records ({preset} preset)\n\n"
+        "Every folder of `results/` is one machine's records (`results/<machine>/<experiment>/<preset>.jsonl`, "
+        "made there by `make reproduce` and `make bench`); a machine's report is "
+        "`report/<machine>/REPORT-<preset>.md`. Headline numbers, each the median of that machine's own records: "
+        "Table 4.1 at N = 1024 (setup + solve of its fastest column), Table 4.2 on scene 3 (RRV's room3.xml, OpenMP, "
+        "to 1e-6), one Jacobi step of room3 with F in float32 (`make bench`, our fastest layout) and the STREAM triad "
+        f"(`bin/stream`, `make bench`). Written by `make report` from the records.\n\n{body}\n")
+    return out
