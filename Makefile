@@ -171,7 +171,7 @@ test:
 reproduce:
 	@echo "reproduce: machine $$(python3 common/machine_label.py) (records in results/<machine>/), preset $(PRESET), runner $(RUNNER)"
 	@common/deps.sh --check || common/deps.sh
-	@$(MAKE) --no-print-directory all
+	@$(MAKE) --no-print-directory -j$$(nproc) all
 ifeq ($(RUNNER),slurm)
 	PRESET=$(PRESET) slurm/submit $(EXPERIMENTS)
 else
