@@ -41,7 +41,7 @@ MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/
 MPI_ONLY    := radiosity/solve/mpi.cpp radiosity/dist/ff_mpi.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
-MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp
+MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp
 MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
@@ -144,8 +144,8 @@ FUZZ_CXX     ?= clang++
 FUZZ_SECONDS ?= 60
 FUZZ_BUILD   ?= build-fuzz
 FUZZ_TARGETS := scene ff_file
-FUZZ_SRC_scene   := tests/fuzz/fuzz_scene.cpp $(MOD_scene)
-FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/ff_file.cpp radiosity/formfactor/form_factors.cpp
+FUZZ_SRC_scene   := tests/fuzz/fuzz_scene.cpp $(MOD_scene) common/files.cpp
+FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/ff_file.cpp radiosity/formfactor/form_factors.cpp common/files.cpp
 FUZZ_HEADERS := $(wildcard common/*.hpp radiosity/*.hpp radiosity/scene/*.hpp radiosity/formfactor/*.hpp tests/fuzz/*.hpp)
 $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
 	@mkdir -p $(@D)

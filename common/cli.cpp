@@ -1,11 +1,14 @@
 #include "common/cli.hpp"
 
+#include <algorithm>
+#include <cfloat>
 #include <cstdio>
 #include <exception>
 
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
+#include "common/one_line.hpp"
 
 namespace hpcgi {
 
@@ -19,11 +22,74 @@ bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code) {
     exit_code = app.exit(e);
     return false;
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "%s: %s (see --help)\n", app.get_name().c_str(), e.what());
+    // A program of subcommands given an unknown one: name it, and the ones there are (CLI11 says only that a
+    // subcommand is required).
+    const auto subs = app.get_subcommands([](const CLI::App*) { return true; });
+    if (!subs.empty() && argc > 1 && argv[1][0] != '-' && std::none_of(subs.begin(), subs.end(), [&](const CLI::App* c) { return c->check_name(argv[1]); })) {
+      std::string names;
+      for (const CLI::App* c : subs) names += (names.empty() ? "" : ", ") + c->get_name();
+      std::fprintf(stderr, "%s: unknown subcommand '%s' (the subcommands are %s; see --help)\n", app.get_name().c_str(),
+                   one_line(argv[1], 40).c_str(), names.c_str());
+      exit_code = kExitUsage;
+      return false;
+    }
+    std::fprintf(stderr, "%s: %s (see --help)\n", app.get_name().c_str(), one_line(e.what()).c_str());
     exit_code = kExitUsage;
     return false;
   }
   return true;
+}
+
+void check_tolerance(double tol, const std::string& precision) {
+  // A residual's rounding can take it a little below the precision's epsilon, not a hundred times below.
+  const double eps = precision == "float" ? double(FLT_EPSILON) : DBL_EPSILON, floor = eps / 100;
+  char buf[160];
+  if (!(tol < 1)) {
+    std::snprintf(buf, sizeof buf, "--tol %g: a relative residual tolerance must be below 1 (at 1 the start is already an answer)", tol);
+    throw UsageError(buf);
+  }
+  if (tol < floor) {
+    std::snprintf(buf, sizeof buf, "--tol %g is below what %s can reach (its rounding is %.2g): use --tol %.0e or more%s", tol,
+                  precision.c_str(), eps, floor, precision == "float" ? ", or --precision double" : "");
+    throw UsageError(buf);
+  }
+}
+
+CLI::Validator integer_in(long long lo, long long hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& s) -> std::string {
+        long long v = 0;
+        try {
+          size_t pos = 0;
+          v = std::stoll(s, &pos);
+          if (pos != s.size()) return "'" + one_line(s, 40) + "' is not an integer";
+        } catch (const std::out_of_range&) {
+          return "'" + one_line(s, 40) + "' is out of range: an integer from " + std::to_string(lo) + " to " + std::to_string(hi);
+        } catch (...) {
+          return "'" + one_line(s, 40) + "' is not an integer";
+        }
+        if (v < lo || v > hi)
+          return "must be an integer from " + std::to_string(lo) + " to " + std::to_string(hi) + ", got " + s;
+        return {};
+      },
+      "INT in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+}
+
+CLI::Validator fraction_below_one() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          size_t pos = 0;
+          v = std::stod(s, &pos);
+          if (pos != s.size()) return "'" + one_line(s, 40) + "' is not a number";
+        } catch (...) {
+          return "'" + one_line(s, 40) + "' is not a number";
+        }
+        if (!(v >= 0 && v < 1)) return "must be a number from 0 to below 1, got " + s;
+        return {};
+      },
+      "[0, 1)");
 }
 
 CLI::Validator byte_size() {

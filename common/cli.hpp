@@ -34,6 +34,19 @@ inline CLI::Validator positive_finite() {
       "POSITIVE");
 }
 
+// A relative tolerance must lie in (0, 1) and be reachable in the working precision ("float" or "double"): at or
+// above 1 every run "converges" at once, a hundred times below the precision's rounding (FLT_EPSILON, DBL_EPSILON)
+// none can.
+// Throws UsageError with one line.
+void check_tolerance(double tol, const std::string& precision);
+
+// A validator for integer options in [lo, hi], with messages a user reads at a glance: "'16abc' is not an
+// integer", "must be an integer from 1 to 4096, got 0" (CLI11's Range prints its bounds with 309 digits).
+CLI::Validator integer_in(long long lo, long long hi);
+
+// A validator for a fraction: a finite number with 0 <= v < 1 (a threshold that keeps some form factors).
+CLI::Validator fraction_below_one();
+
 // A validator for sizes in bytes ("67108864", "64M", "1.5G": common/memory.hpp's parse_bytes).
 CLI::Validator byte_size();
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "common/cli.hpp"
+#include "common/files.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
@@ -134,10 +135,10 @@ int main(int argc, char** argv) {
       "larger than the caches; best and median of --trials sweeps.",
       "stream"};
   app.add_option("--size", a.size, "elements (doubles) per array; 3 arrays")
-      ->check(CLI::Range(1L << 10, 1L << 36))->capture_default_str();
-  app.add_option("--trials", a.trials, "sweeps of each kind")->check(CLI::Range(1, 100000))->capture_default_str();
+      ->check(hpcgi::integer_in(1LL << 10, 1LL << 36))->capture_default_str();
+  app.add_option("--trials", a.trials, "sweeps of each kind")->check(hpcgi::integer_in(1, 100000))->capture_default_str();
   app.add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-      ->check(CLI::Range(1, 4096));
+      ->check(hpcgi::integer_in(1, 4096));
   app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
   app.add_flag("--json", a.json, "print the record on stdout");
   app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
@@ -145,6 +146,7 @@ int main(int argc, char** argv) {
   int code = 0;
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
   return hpcgi::run_main("stream", [&] {
+    hpcgi::files::check_outputs({{a.record_path, "--record", true}}, {});
     if (a.threads > 0) omp_set_num_threads(a.threads);
     return run(a);
   });

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "common/cli.hpp"
+#include "common/files.hpp"
 #include "common/errors.hpp"
 #include "common/launcher.hpp"
 #include "common/record.hpp"
@@ -39,13 +40,9 @@ long default_max_iter(long n) { return std::max(1000L, 4 * n); }
 // Writes the N×N solution as raw little-endian float64, row j (y) after row j-1, through a temporary file and
 // rename, so a killed run leaves no half-written file.
 void write_solution(const std::string& path, const std::vector<double>& x) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(x.data()), static_cast<std::streamsize>(x.size() * sizeof(double)));
-    if (!out) throw std::runtime_error("cannot write " + tmp);
-  }
-  std::filesystem::rename(tmp, path);
+  hpcgi::files::AtomicFile out(path);
+  if (std::fwrite(x.data(), sizeof(double), x.size(), out.stream()) != x.size()) out.fail(std::strerror(errno));
+  out.commit();
 }
 
 template <class T>
@@ -139,10 +136,10 @@ int main(int argc, char** argv) {
       "boundary, N x N interior points, h = 1/(N+1)); test problem u = sin^2(pi x) sin^2(pi y) of Khuvis & Gobbert\n"
       "(HPCF-2014-6). Stops when ||r||/||r0|| <= tol.",
       "poisson"};
-  app.add_option("--n", a.cfg.n, "interior points per dimension")->check(CLI::Range(1L, 1L << 20))->capture_default_str();
+  app.add_option("--n", a.cfg.n, "interior points per dimension")->check(hpcgi::integer_in(1, 1LL << 20))->capture_default_str();
   app.add_option("--backend", a.cfg.backend, "serial | openmp | mpi | cublas1 | cublas2 | cuda")->capture_default_str();
   app.add_option("--tol", a.tol, "relative residual tolerance")->check(hpcgi::positive_finite())->capture_default_str();
-  app.add_option("--max-iter", a.max_iter, "iteration limit (default max(1000, 4N))")->check(CLI::PositiveNumber);
+  app.add_option("--max-iter", a.max_iter, "iteration limit (default max(1000, 4N))")->check(hpcgi::integer_in(1, 1LL << 40));
   app.add_option("--precision", a.precision, "precision of vectors and stencil (dots accumulate in double)")
       ->check(CLI::IsMember({"double", "float"}))->capture_default_str();
   app.add_option("--variant", a.variant,
@@ -152,7 +149,7 @@ int main(int argc, char** argv) {
   app.add_option("--halo", a.cfg.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
       ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
-      ->check(CLI::Range(1, 4096));
+      ->check(hpcgi::integer_in(1, 4096));
   app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
   app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");
   app.add_flag("--json", a.json, "print the record on stdout");
@@ -164,6 +161,8 @@ int main(int argc, char** argv) {
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
 
   return hpcgi::run_main("poisson", [&]() -> int {
+    hpcgi::check_tolerance(a.tol, a.precision);
+    hpcgi::files::check_outputs({{a.record_path, "--record", true}, {a.solution_path, "--solution"}}, {});
     a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision) : a.variant;
     const bool mpi = a.cfg.backend == "mpi";
     if (!mpi && hpcgi::launched_by_mpirun_with_many_ranks())

@@ -3,6 +3,9 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
+
+#include "common/files.hpp"
 
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
@@ -26,6 +29,12 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a);
 void add_memory_option(CLI::App* cmd, SceneArgs& a);
 // Loads and subdivides the scene (sets the thread count first); prints nothing.
 Mesh load_scene(const SceneArgs& a, double* seconds);
+// An MPI run gives each rank a block of rows: more ranks than patches are refused (every rank alike, one line).
+void require_rows_for_ranks(size_t patches, int ranks);
+// Before anything is computed: the scene and `inputs` are files, `outputs` and --record can be written without
+// harm (common/files.hpp: no device, FIFO or folder replaced, no input overwritten, no output twice).
+void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
+                 const std::vector<hpcgi::files::Output>& inputs);
 
 struct InfoArgs : SceneArgs {};
 void add_info(CLI::App& app, InfoArgs& a);

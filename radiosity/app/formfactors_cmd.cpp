@@ -40,7 +40,7 @@ void add_formfactors(CLI::App& app, FormFactorArgs& a) {
   cmd->add_option("--weights", a.weights, "exact (Cohen-Greenberg delta form factors) or rrv2007 (RRV's cos*cos)")
       ->check(CLI::IsMember({"exact", "rrv2007"}))->capture_default_str();
   cmd->add_option("--threshold", a.hemicube.threshold, "store form factors <= T as 0 (RRV's threshold)")
-      ->capture_default_str();
+      ->check(hpcgi::fraction_below_one())->capture_default_str();
   cmd->add_option("--split", a.split,
                   "under mpirun: rows in blocks of equal estimated hemicube work (work) or of equal count (rows, to "
                   "compare)")
@@ -76,12 +76,17 @@ int run_formfactors(const FormFactorArgs& a) {
     hp.weights = parse_hemicube_weights(a.weights);
     validate(hp);
     limit = a.memory_limit();
+    check_files(a, {{a.out, "-o"}}, {});
   });
   const bool dist = hpcgi::comm::active();
   const int ranks = hpcgi::comm::size(), rank = hpcgi::comm::rank();
   const bool root = hpcgi::comm::root();
   double load_s = 0;
-  const Mesh m = hpcgi::comm::agreed([&] { return load_scene(a, &load_s); });
+  const Mesh m = hpcgi::comm::agreed([&] {
+    Mesh mesh = load_scene(a, &load_s);
+    require_rows_for_ranks(mesh.size(), ranks);
+    return mesh;
+  });
   const size_t n = m.size();
   const double n2 = double(n) * double(n);
   const int threads = omp_get_max_threads();
@@ -242,6 +247,10 @@ int run_formfactors(const FormFactorArgs& a) {
     else
       std::printf("  row sums %.4f .. %.4f; %.1f%% non-zero (reciprocity is checked on one rank only)\n",
                   d.min_row_sum, d.max_row_sum, 100.0 * static_cast<double>(nonzero) / n2);
+    if (d.max_row_sum > kRowSumNote)
+      std::printf("  note: a row of F sums to %.4f, more than %.2f: the hemicube is too coarse for this mesh (R=%d), "
+                  "and radiosity gains energy it should lose; use a larger --hemicube\n", d.max_row_sum, kRowSumNote,
+                  hp.resolution);
     if (dist) {
       std::printf("  ranks: rows");
       for (int r = 0; r < ranks; ++r) std::printf(" %zu", bounds[r + 1] - bounds[r]);

@@ -21,7 +21,7 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a) {
   cmd->add_flag("--allow-reflectivity-ge-1", a.load.allow_reflectivity_ge_1,
                 "accept reflectivity >= 1 in a channel (RRV's room3.xml has lossless bulb barrels)");
   cmd->add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
-      ->check(CLI::Range(1, 4096));
+      ->check(hpcgi::integer_in(1, 4096));
   cmd->add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
   cmd->add_flag("--json", a.json, "print the record on stdout");
   cmd->add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
@@ -39,6 +39,25 @@ double SceneArgs::memory_limit() const {
   return max_memory_per_rank.empty() ? 0.0 : hpcgi::parse_bytes(max_memory_per_rank);
 }
 
+void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
+                 const std::vector<hpcgi::files::Output>& inputs) {
+  hpcgi::files::require_input(a.scene, "scene file");
+  std::vector<std::string> paths{a.scene};
+  for (const auto& f : inputs) {
+    hpcgi::files::require_input(f.path, f.what);
+    paths.push_back(f.path);
+  }
+  outputs.push_back({a.record_path, "--record", true});
+  hpcgi::files::check_outputs(outputs, paths);
+}
+
+void require_rows_for_ranks(size_t patches, int ranks) {
+  if (ranks > 1 && size_t(ranks) > patches)
+    throw hpcgi::UsageError("the scene has " + std::to_string(patches) + " patch" + (patches == 1 ? "" : "es") + " for " +
+                            std::to_string(ranks) + " MPI ranks: every rank needs a row of its own (run on at most " +
+                            std::to_string(patches) + " ranks)");
+}
+
 Mesh load_scene(const SceneArgs& a, double* seconds) {
   if (a.threads > 0) omp_set_num_threads(a.threads);
   hpcgi::Timer t;
@@ -54,6 +73,7 @@ void add_info(CLI::App& app, InfoArgs& a) {
 }
 
 int run_info(const InfoArgs& a) {
+  check_files(a, {}, {});
   double load_s = 0;
   const Mesh m = load_scene(a, &load_s);
   double area = 0, amin = 1e300, amax = 0, rho_max = 0;

@@ -116,10 +116,10 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   cmd->add_option("--method", a.cfg.method, "jacobi | bicgstab")->check(CLI::IsMember({"jacobi", "bicgstab"}))
       ->capture_default_str();
   auto* steps = cmd->add_option("--steps", a.cfg.steps, "exactly K Jacobi steps (RRV: 32), no tolerance")
-                    ->check(CLI::PositiveNumber);
+                    ->check(hpcgi::integer_in(1, 1LL << 40));
   cmd->add_option("--tol", a.cfg.tol, "stop when every channel's ||e - A b|| / ||e|| <= tol")
       ->check(hpcgi::positive_finite())->capture_default_str()->excludes(steps);
-  cmd->add_option("--max-iter", a.cfg.max_iter, "iteration limit with --tol")->check(CLI::PositiveNumber)
+  cmd->add_option("--max-iter", a.cfg.max_iter, "iteration limit with --tol")->check(hpcgi::integer_in(1, 1LL << 40))
       ->capture_default_str();
   CLI::Option* layout =
       cmd->add_option("--layout", a.cfg.layout,
@@ -138,7 +138,7 @@ void add_solve(CLI::App& app, SolveArgs& a) {
                   "working precision in the sums (16 bits: serial and openmp)")
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
   cmd->add_option("--threshold", a.threshold, "drop the form factors with |F_ij| <= T when loading them")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(hpcgi::fraction_below_one())->capture_default_str();
   cmd->add_option("--channels", a.cfg.channels,
                   "auto (a grey scene, r = g = b everywhere, is solved as one channel on serial and openmp) | 3")
       ->check(CLI::IsMember({"auto", "3"}))->capture_default_str();
@@ -165,7 +165,7 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   cmd->add_option("--exposure", a.exposure, "multiply radiosity by E before display")
       ->check(hpcgi::positive_finite())->capture_default_str();
   cmd->add_option("--snapshots", a.snapshots, "render the scene after these iterations (report Figure 4.2: 1,2,4,8,32)")
-      ->delimiter(',')->check(CLI::PositiveNumber);
+      ->delimiter(',')->check(hpcgi::integer_in(1, 1LL << 40));
   cmd->add_option("--snapshot-prefix", a.snapshot_prefix, "snapshot files are PREFIX_iterK.png (default: snapshot)");
   cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference and the error reference");
   cmd->callback([&a, layout, fused, distribution, overlap] {
@@ -179,6 +179,11 @@ void add_solve(CLI::App& app, SolveArgs& a) {
       for (const auto& b : solve_backends())
         if (b.name == a.cfg.backend && b.layouts.size() == 1) a.cfg.layout = b.layouts.front();
   });
+}
+
+// The picture of iteration k asked for by --snapshots.
+std::string snapshot_file(const SolveArgs& a, long k) {
+  return (a.snapshot_prefix.empty() ? std::string("snapshot") : a.snapshot_prefix) + "_iter" + std::to_string(k) + ".png";
 }
 
 int run_solve(const SolveArgs& a) {
@@ -199,6 +204,16 @@ int run_solve(const SolveArgs& a) {
     chosen = &find_backend(cfg.backend);
     values = parse_ff_values(a.ff_precision);
     limit = a.memory_limit();
+    std::vector<hpcgi::files::Output> outputs{{a.output_xml, "--output"}, {a.png, "--png"}};
+    const long last = cfg.steps > 0 ? cfg.steps : cfg.max_iter;
+    for (long k : a.snapshots) {
+      if (k < 1 || k > last)
+        throw hpcgi::UsageError("--snapshots " + std::to_string(k) + ": no such iteration (the run has at most " +
+                                std::to_string(last) + ")");
+      outputs.push_back({snapshot_file(a, k), "--snapshots"});
+    }
+    check_files(a, outputs, {{a.ff, "--ff"}, {a.reference_ff, "--reference-ff"}});
+    if (cfg.steps == 0) hpcgi::check_tolerance(cfg.tol, cfg.precision);
     if (!chosen->built)  // before anything is read for it
       throw hpcgi::UsageError("solver backend '" + chosen->name + "' is not available: " + chosen->why_not);
     if (chosen->distributed && !a.reference_ff.empty())
@@ -212,7 +227,11 @@ int run_solve(const SolveArgs& a) {
   const SolveBackend& backend = *chosen;
   const bool dist = backend.distributed;
   double load_s = 0;
-  const Mesh m = hpcgi::comm::agreed([&] { return load_scene(a, &load_s); });
+  const Mesh m = hpcgi::comm::agreed([&] {
+    Mesh mesh = load_scene(a, &load_s);
+    require_rows_for_ranks(mesh.size(), dist ? ranks : 1);
+    return mesh;
+  });
   const size_t n = m.size();
   const double n2 = double(n) * double(n);
   const std::string patches = std::to_string(n) + " patches";
@@ -355,7 +374,6 @@ int run_solve(const SolveArgs& a) {
   ropt.exposure = a.exposure;
 
   const std::set<long> snaps(a.snapshots.begin(), a.snapshots.end());
-  const std::string prefix = a.snapshot_prefix.empty() ? "snapshot" : a.snapshot_prefix;
   std::vector<std::string> snapshot_files;
   IterationCallback cb;
   // On every rank (fetching B is collective), drawn by rank 0. A failure to write is kept until the solve ends: a
@@ -364,7 +382,7 @@ int run_solve(const SolveArgs& a) {
   if (!snaps.empty())
     cb = [&](long it, const std::vector<Rgb>& B) {
       if (!snaps.count(it)) return;
-      const std::string f = prefix + "_iter" + std::to_string(it) + ".png";
+      const std::string f = snapshot_file(a, it);
       try {
         if (root && !snapshot_error) write_png(f, render(m, B, cam, width, height, ropt));
       } catch (...) {

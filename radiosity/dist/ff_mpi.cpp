@@ -1,5 +1,7 @@
 #include "radiosity/dist/ff_mpi.hpp"
 
+#include "common/files.hpp"
+
 #include <mpi.h>
 
 #include <algorithm>
@@ -71,28 +73,44 @@ FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const
     throw std::invalid_argument("save_form_factor_rows: a block of rows that does not belong to a mesh of " +
                                 std::to_string(n));
   FileStats st;
-  const std::string tmp = path + ".tmp";
   const std::string file = "form-factor file '" + path + "'";
   FormFactorFileInfo info;
   info.n = n;
   MPI_File fh = MPI_FILE_NULL;
-  // Every failure goes through here: the ranks agree, close the file, and rank 0 removes the .tmp.
+  std::string tmp;
+  int slot = -1;
+  // Every failure goes through here: the ranks agree, close the file, and rank 0 removes the temporary file.
   auto settle = [&](const std::string& error) {
     try {
       hpcgi::comm::agree(error.empty() ? 0 : hpcgi::kExitRuntime, error);
     } catch (...) {
       if (fh != MPI_FILE_NULL) MPI_File_close(&fh);
-      if (rank == 0) std::remove(tmp.c_str());
+      if (rank == 0 && !tmp.empty()) std::remove(tmp.c_str());
+      if (rank == 0) hpcgi::files::release_temp(slot);
       throw;
     }
   };
+  // A unique temporary file beside the target (common/files.hpp), made by rank 0 and opened by name by all ranks.
+  std::string error0;
+  if (rank == 0) {
+    try {
+      tmp = hpcgi::files::make_temp_beside(path, slot);
+    } catch (const std::exception& e) {
+      error0 = e.what();
+    }
+  }
+  settle(error0);
+  unsigned long len = tmp.size();
+  MPI_Bcast(&len, 1, MPI_UNSIGNED_LONG, 0, MPI_COMM_WORLD);
+  tmp.resize(len);
+  MPI_Bcast(tmp.data(), static_cast<int>(len), MPI_CHAR, 0, MPI_COMM_WORLD);
 
   int rc = MPI_File_open(MPI_COMM_WORLD, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY, MPI_INFO_NULL, &fh);
   if (rc != MPI_SUCCESS) fh = MPI_FILE_NULL;
-  settle(rc == MPI_SUCCESS ? "" : "cannot create " + file + ".tmp: " + mpi_error(rc));
-  // A .tmp left by a killed run may be longer: cut it to the file's size (collective).
+  settle(rc == MPI_SUCCESS ? "" : "cannot create " + file + " (temporary " + tmp + "): " + mpi_error(rc));
+  // Sized to the file (collective).
   rc = MPI_File_set_size(fh, MPI_Offset(info.file_bytes()));
-  settle(rc == MPI_SUCCESS ? "" : "cannot size " + file + ".tmp: " + mpi_error(rc));
+  settle(rc == MPI_SUCCESS ? "" : "cannot size " + file + ": " + mpi_error(rc));
 
   hpcgi::Timer t;
   std::string error;
@@ -105,21 +123,22 @@ FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const
                            reinterpret_cast<char*>(const_cast<float*>(rows.values.data())),
                            uint64_t(rows.values.size()) * sizeof(float));
   st.io_s = t.seconds();
-  settle(error.empty() ? "" : "cannot write " + file + ".tmp on rank " + std::to_string(rank) + ": " + error);
+  settle(error.empty() ? "" : "cannot write " + file + " on rank " + std::to_string(rank) + ": " + error);
 
   uint64_t sum = chained_checksum(rows.values.data(), rows.values.size() * sizeof(float), st);
   if (rank == size - 1) error = transfer<true>(fh, info.checksum_offset(), reinterpret_cast<char*>(&sum), sizeof sum);
-  settle(error.empty() ? "" : "cannot write " + file + ".tmp: " + error);
+  settle(error.empty() ? "" : "cannot write " + file + ": " + error);
 
   rc = MPI_File_sync(fh);
-  settle(rc == MPI_SUCCESS ? "" : "cannot sync " + file + ".tmp: " + mpi_error(rc));
+  settle(rc == MPI_SUCCESS ? "" : "cannot sync " + file + ": " + mpi_error(rc));
   rc = MPI_File_close(&fh);
   fh = MPI_FILE_NULL;
-  settle(rc == MPI_SUCCESS ? "" : "cannot write " + file + ".tmp: " + mpi_error(rc));
+  settle(rc == MPI_SUCCESS ? "" : "cannot write " + file + ": " + mpi_error(rc));
   // Every rank's bytes are in (the close is collective); rank 0 makes the file whole under its name.
-  if (rank == 0 && std::rename(tmp.c_str(), path.c_str()) != 0)
+  if (rank == 0 && std::rename(tmp.c_str(), hpcgi::files::resolve_target(path).c_str()) != 0)
     error = "cannot rename the finished " + file + ": " + std::strerror(errno);
   settle(error);
+  if (rank == 0) hpcgi::files::release_temp(slot);
   return st;
 }
 
@@ -162,6 +181,7 @@ FormFactorRows load_form_factor_rows(const std::string& path, const Mesh& expect
   int ok = rank == size - 1 ? int(sum == stored) : 0;
   MPI_Bcast(&ok, 1, MPI_INT, size - 1, MPI_COMM_WORLD);
   if (!ok) throw hpcgi::Agreed<hpcgi::UsageError>("corrupted " + file + ": checksum mismatch");
+  hpcgi::comm::agreed([&] { check_form_factor_values(rows.values.data(), rows.rows(), info.n, rows.row_begin, path); });
   if (stats) *stats = st;
   return rows;
 }

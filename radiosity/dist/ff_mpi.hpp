@@ -21,9 +21,9 @@ struct FileStats {
   double chain_s = 0;     // waiting for the previous rank's hash (the chain is sequential)
 };
 
-// Collective. Every rank passes its block of rows (in rank order the blocks cover 0..n). Writes path + ".tmp" and,
-// once every rank has written, rank 0 renames it to path: path is never half-written. If any rank fails, every rank
-// throws the same hpcgi::Agreed error and the .tmp is removed.
+// Collective. Every rank passes its block of rows (in rank order the blocks cover 0..n). Writes a unique temporary
+// file beside path (common/files.hpp) and, once every rank has written, rank 0 renames it to path: path is never half-written. If any rank fails, every rank
+// throws the same hpcgi::Agreed error and the temporary file is removed.
 FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const FormFactorRows& rows);
 
 // Collective. This rank's block of rows of the file for mesh `expected` (in rank order the blocks cover 0..n), with

@@ -1,8 +1,10 @@
 #include "radiosity/formfactor/ff_file.hpp"
+#include "common/files.hpp"
 
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -117,22 +119,12 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
   const size_t values_bytes = ff.values.size() * sizeof(float);
   const uint64_t sum = checksum(ff.values.data(), values_bytes);
 
-  const std::string tmp = path + ".tmp";
-  auto fail = [&](const std::string& what) {
-    const std::string reason = std::strerror(errno);
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot " + what + " form-factor file '" + path + "': " + reason);
-  };
-  {
-    File f(std::fopen(tmp.c_str(), "wb"));
-    if (!f) fail("create");
-    if (std::fwrite(header.data(), header.size(), 1, f.get()) != 1 ||
-        std::fwrite(ff.values.data(), 1, values_bytes, f.get()) != values_bytes ||
-        std::fwrite(&sum, sizeof sum, 1, f.get()) != 1 || std::fflush(f.get()) != 0 || fsync(fileno(f.get())) != 0)
-      fail("write");
-    if (std::fclose(f.release()) != 0) fail("write");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename the finished");
+  hpcgi::files::AtomicFile out(path);  // a unique temporary file beside it, renamed over it when whole
+  std::FILE* f = out.stream();
+  if (std::fwrite(header.data(), header.size(), 1, f) != 1 || std::fwrite(ff.values.data(), 1, values_bytes, f) != values_bytes ||
+      std::fwrite(&sum, sizeof sum, 1, f) != 1)
+    out.fail(std::strerror(errno));
+  out.commit();
 }
 
 namespace {
@@ -189,6 +181,7 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
 }  // namespace
 
 FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected) {
+  hpcgi::files::require_input(path, "form-factor file");  // a FIFO would block, a folder is no file
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
   return check_header(f.get(), path, expected);
@@ -196,6 +189,7 @@ FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& e
 
 FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
   const std::string file = "form-factor file '" + path + "'";
+  hpcgi::files::require_input(path, "form-factor file");
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) throw hpcgi::UsageError("cannot open " + file + ": " + std::strerror(errno));
   const FormFactorFileInfo info = check_header(f.get(), path, expected);
@@ -210,7 +204,22 @@ FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
     throw hpcgi::UsageError("cannot read " + file + ": " + std::strerror(errno));
   if (sum != checksum(ff.values.data(), values_bytes))
     throw hpcgi::UsageError("corrupted " + file + ": checksum mismatch");
+  check_form_factor_values(ff.values.data(), ff.n, ff.n, 0, path);
   return ff;
+}
+
+void check_form_factor_values(const float* values, size_t rows, size_t n, size_t first_row, const std::string& path) {
+  for (size_t r = 0; r < rows; ++r) {
+    const float* row = values + r * n;
+    const size_t i = first_row + r;
+    for (size_t j = 0; j < n; ++j) {
+      const float v = row[j];
+      if ((v < 0 || v > 1 || (j == i && v != 0)) && !std::isnan(v))
+        throw hpcgi::UsageError("form-factor file '" + hpcgi::one_line(path) + "': F[" + std::to_string(i) + "][" +
+                                std::to_string(j) + "] = " + std::to_string(v) +
+                                (j == i ? ": a patch's form factor to itself must be 0" : ": a form factor lies in [0, 1]"));
+    }
+  }
 }
 
 }  // namespace radiosity

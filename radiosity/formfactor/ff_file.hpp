@@ -53,7 +53,8 @@ std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, co
 // checksum (the values are not read).
 FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected);
 
-// Writes path + ".tmp", then renames it to path, so that path is never half-written. Throws std::runtime_error if
+// Writes a unique temporary file beside path, then renames it to path (common/files.hpp): path is never
+// half-written. Throws std::runtime_error if
 // the file cannot be written and std::invalid_argument if ff is not a matrix for this mesh.
 void save_form_factors(const std::string& path, const Mesh& mesh, const FormFactors& ff);
 
@@ -62,5 +63,14 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
 // precision; a file for another mesh (patch count or hash differ: both are given); a truncated file (expected and
 // actual sizes in bytes); a checksum mismatch.
 FormFactors load_form_factors(const std::string& path, const Mesh& expected);
+
+// Form factors are fractions: a value outside [0, 1] (finite; NaN is left to the solvers' guards, which stop at
+// step 1 and say so) or a self form factor F_ii other than 0 (a planar patch does not see itself) is refused with
+// UsageError naming the file, the row and the column. values holds rows [first_row, first_row + rows) of n columns.
+void check_form_factor_values(const float* values, size_t rows, size_t n, size_t first_row, const std::string& path);
+
+// A row of F sums to at most 1 (what leaves a patch); the hemicube's rounding gives a little more. Row sums above
+// this are reported by `formfactors` as a note (a coarse hemicube: R = 2 gives 1.13): the answer then gains energy.
+inline constexpr double kRowSumNote = 1.01;
 
 }  // namespace radiosity

@@ -1,5 +1,6 @@
 // libpng encoding through a temporary file and a rename; see png_writer.hpp.
 #include "radiosity/render/png_writer.hpp"
+#include "common/files.hpp"
 
 #include <png.h>
 
@@ -55,25 +56,10 @@ bool encode(std::FILE* f, const Image& img, PngError& err) {
 void write_png(const std::string& path, const Image& img) {
   if (img.width < 1 || img.height < 1 || img.rgb.size() != 3 * static_cast<size_t>(img.width) * img.height)
     throw std::invalid_argument("write_png: the image's size and pixel count disagree");
-  const std::string tmp = path + ".tmp";
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error("cannot write PNG '" + path + "': " + std::strerror(errno));
+  hpcgi::files::AtomicFile out(path);  // a unique temporary file beside it, renamed over it when whole
   PngError err{};
-  const bool encoded = encode(f, img, err);
-  // Buffered bytes reach the disk only here, so a full disk shows up at fflush or fclose, not in libpng.
-  const bool flushed = encoded && std::fflush(f) == 0 && !std::ferror(f);
-  const int flush_errno = errno;
-  const bool closed = std::fclose(f) == 0;
-  if (!encoded || !flushed || !closed) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write PNG '" + path + "': " +
-                             (encoded ? std::strerror(flushed ? errno : flush_errno) : err.message));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int rename_errno = errno;
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write PNG '" + path + "': " + std::strerror(rename_errno));
-  }
+  if (!encode(out.stream(), img, err)) out.fail(err.message);
+  out.commit();  // buffered bytes reach the disk only here: a full disk shows at the flush, not in libpng
 }
 
 }  // namespace radiosity

@@ -6,7 +6,7 @@
 
 namespace radiosity {
 
-// Writes img as an 8-bit RGB PNG: first to path + ".tmp", then renamed to path, so that a failed or killed write
+// Writes img as an 8-bit RGB PNG: first to a unique temporary file, then renamed to path (common/files.hpp), so a failed or killed write
 // never leaves a half-written PNG at path. Throws std::runtime_error naming the path when the file cannot be
 // written (no such folder, no permission, disk full), std::invalid_argument for an image whose size and pixel
 // count disagree.

@@ -6,10 +6,12 @@
 #include <sstream>
 
 #include "common/errors.hpp"
+#include "common/files.hpp"
 
 namespace radiosity {
 
 std::vector<Triangle> read_obj_triangles(const std::string& path) {
+  hpcgi::files::require_input(path, "mesh file");
   std::ifstream in(path);
   if (!in) throw hpcgi::UsageError("cannot read " + path);
   std::vector<Vec3> vertices;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/errors.hpp"
+#include "common/files.hpp"
 #include "radiosity/scene/obj_mesh.hpp"
 #include "radiosity/scene/primitives.hpp"
 #include "radiosity/scene/subdivide.hpp"
@@ -238,7 +239,11 @@ class Reader {
     }
   }
 
-  void walk(const pugi::xml_node& parent, const Transform& m) {
+  // Transforms nest; the depth is bounded so that a hostile file cannot exhaust the stack (RRV's scenes nest 4 deep).
+  static constexpr int kMaxNesting = 1000;
+  void walk(const pugi::xml_node& parent, const Transform& m, int depth = 0) {
+    if (depth > kMaxNesting)
+      in_.fail(parent, "transforms nested more than " + std::to_string(kMaxNesting) + " deep (a scene needs a few)");
     for (const pugi::xml_node& n : children(parent)) {
       const std::string kind = n.name();
       if (kind == "object") {
@@ -252,16 +257,16 @@ class Reader {
         // RRV reads a missing component as 0, also for scale (FORMAT.md).
         in_.allow_only(n, {"dx", "dy", "dz"});
         const Vec3 d{in_.number(n, "dx", 0.0), in_.number(n, "dy", 0.0), in_.number(n, "dz", 0.0)};
-        walk(n, kind == "translate" ? m.translated(d) : m.scaled(d));
+        walk(n, kind == "translate" ? m.translated(d) : m.scaled(d), depth + 1);
       } else if (kind == "rotate") {
         in_.allow_only(n, {"angle", "dx", "dy", "dz"});
         const Vec3 axis{in_.number(n, "dx", 0.0), in_.number(n, "dy", 0.0), in_.number(n, "dz", 0.0)};
         const double angle = in_.number(n, "angle");
         if (axis.norm() == 0) in_.fail(n, "<rotate> needs a non-zero axis dx, dy, dz");
-        walk(n, m.rotated(angle, axis));
+        walk(n, m.rotated(angle, axis), depth + 1);
       } else if (kind == "shear") {
         in_.allow_only(n, {"dx", "dy", "dz"});
-        walk(n, m);  // RRV's shear has no effect
+        walk(n, m, depth + 1);  // RRV's shear has no effect
       } else {
         unknown(n, "the body holds object, translate, scale, rotate, shear");
       }
@@ -313,6 +318,7 @@ Mesh load(const XmlInput& in, const LoadOptions& opt, std::vector<std::string> t
 }  // namespace
 
 Mesh load_rrv_scene(const std::string& path, const LoadOptions& opt) {
+  hpcgi::files::require_input(path, "scene file");  // a FIFO would block the run for ever
   std::ifstream f(path, std::ios::binary);
   if (!f) throw hpcgi::UsageError("cannot read scene file " + path + ": " + std::strerror(errno));
   std::ostringstream text;

@@ -1,5 +1,6 @@
 // RRV-format output with pugixml; see rrv_writer.hpp.
 #include "radiosity/scene/rrv_writer.hpp"
+#include "common/files.hpp"
 
 #include <cerrno>
 #include <charconv>
@@ -63,16 +64,10 @@ void write_rrv_xml(const std::string& path, const Mesh& m, const std::vector<Rgb
   }
   scene.append_child("body").append_child("object").append_attribute("name") = "scene";
 
-  const std::string tmp = path + ".tmp";
-  if (!doc.save_file(tmp.c_str(), "  ")) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot write " + tmp);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::error_code ec(errno, std::generic_category());
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + ec.message());
-  }
+  hpcgi::files::AtomicFile out(path);  // a unique temporary file beside it, renamed over it when whole
+  pugi::xml_writer_file writer(out.stream());
+  doc.save(writer, "  ");
+  out.commit();
 }
 
 }  // namespace radiosity

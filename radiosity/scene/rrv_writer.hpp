@@ -12,7 +12,8 @@
 namespace radiosity {
 
 // radiosity[i] is patch i's computed B (one per patch, else std::invalid_argument). The file is written to
-// path + ".tmp" and renamed, so nothing half-written is left at `path`; I/O failure throws std::runtime_error.
+// a unique temporary file and renamed (common/files.hpp), so nothing half-written is left at `path`; I/O failure
+// throws std::runtime_error.
 // Entities without patches are left out (RRV's format has no empty triangleset).
 void write_rrv_xml(const std::string& path, const Mesh& m, const std::vector<Rgb>& radiosity);
 

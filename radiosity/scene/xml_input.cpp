@@ -2,6 +2,7 @@
 #include "radiosity/scene/xml_input.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <charconv>
 #include <cmath>
 #include <string_view>
@@ -44,11 +45,16 @@ Parsed to_double(std::string_view s) {
 }  // namespace
 
 XmlInput::XmlInput(std::string text, std::string origin) : text_(std::move(text)), origin_(std::move(origin)) {
-  const pugi::xml_parse_result r = doc_.load_buffer(text_.data(), text_.size());
+  const pugi::xml_parse_result r = doc_.load_buffer(text_.data(), text_.size(), pugi::parse_default | pugi::parse_fragment);
   if (!r) {
     throw hpcgi::UsageError(origin_ + ":" + std::to_string(line_at(text_, r.offset)) +
                             ": malformed XML: " + r.description());
   }
+  // Text outside the root element is not XML (parsed as a fragment, pugixml keeps it as a node of the document,
+  // where it would otherwise drop it).
+  for (const pugi::xml_node& c : doc_.children())
+    if (c.type() == pugi::node_pcdata || c.type() == pugi::node_cdata)
+      throw hpcgi::UsageError(place(c) + ": malformed XML: text outside the root element");
 }
 
 size_t XmlInput::line(const pugi::xml_node& n) const { return line_at(text_, n.offset_debug()); }
@@ -61,6 +67,9 @@ void XmlInput::fail(const pugi::xml_node& n, const std::string& what) const {
 
 void XmlInput::allow_only(const pugi::xml_node& n, const std::vector<std::string>& allowed) const {
   for (const pugi::xml_attribute& a : n.attributes()) {
+    // XML forbids an attribute twice on one element (pugixml keeps both; which one would count is a guess)
+    for (pugi::xml_attribute b = a.next_attribute(); b; b = b.next_attribute())
+      if (std::strcmp(a.name(), b.name()) == 0) fail(n, std::string("attribute '") + a.name() + "' twice on <" + n.name() + ">");
     if (std::find(allowed.begin(), allowed.end(), a.name()) != allowed.end()) continue;
     std::string list;
     for (const std::string& name : allowed) list += (list.empty() ? "" : ", ") + name;

@@ -1,0 +1,188 @@
+#include "common/files.hpp"
+
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+
+#include "common/errors.hpp"
+#include "common/one_line.hpp"
+
+namespace hpcgi::files {
+namespace fs = std::filesystem;
+namespace {
+
+std::string kind_of(mode_t m) {
+  if (S_ISDIR(m)) return "a folder";
+  if (S_ISCHR(m)) return "a character device";
+  if (S_ISBLK(m)) return "a block device";
+  if (S_ISFIFO(m)) return "a FIFO";
+  if (S_ISSOCK(m)) return "a socket";
+  return "not a regular file";
+}
+
+std::string in_quotes(const std::string& path) { return "'" + one_line(path) + "'"; }
+
+// Temporary files to remove on SIGINT/SIGTERM: fixed slots, so the handler touches no allocator.
+constexpr int kSlots = 64;
+char g_paths[kSlots][PATH_MAX];
+std::atomic<bool> g_used[kSlots];
+struct sigaction g_old_int, g_old_term;
+std::atomic<bool> g_installed{false};
+
+void on_signal(int sig) {
+  for (int i = 0; i < kSlots; ++i)
+    if (g_used[i].load()) unlink(g_paths[i]);
+  sigaction(sig, sig == SIGINT ? &g_old_int : &g_old_term, nullptr);  // what the program did before, usually die
+  raise(sig);
+}
+
+int register_temp(const std::string& path) {
+  if (!g_installed.exchange(true)) {
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &g_old_int);
+    sigaction(SIGTERM, &sa, &g_old_term);
+  }
+  if (path.size() >= PATH_MAX) return -1;
+  for (int i = 0; i < kSlots; ++i) {
+    if (g_used[i].load()) continue;
+    std::memcpy(g_paths[i], path.c_str(), path.size() + 1);
+    g_used[i].store(true);
+    return i;
+  }
+  return -1;  // more than kSlots outputs open at once: still removed on errors, not on a signal
+}
+
+std::string folder_of(const std::string& target) {
+  const fs::path p(target);
+  return p.has_parent_path() ? p.parent_path().string() : std::string(".");
+}
+
+}  // namespace
+
+std::string resolve_target(const std::string& path) {
+  fs::path p(path);
+  for (int hops = 0; hops < 40; ++hops) {
+    std::error_code ec;
+    if (!fs::is_symlink(fs::symlink_status(p, ec)) || ec) return p.string();
+    fs::path next = fs::read_symlink(p, ec);
+    if (ec) return p.string();
+    p = next.is_absolute() ? next : p.parent_path() / next;
+  }
+  throw UsageError("too many levels of symbolic links at " + in_quotes(path));
+}
+
+void require_input(const std::string& path, const std::string& what) {
+  struct stat st {};
+  if (path.empty() || ::stat(path.c_str(), &st) != 0) return;  // a missing file: the loader says so in its words
+  if (!S_ISREG(st.st_mode)) throw UsageError(what + " " + in_quotes(path) + " is " + kind_of(st.st_mode) + ", not a file");
+}
+
+void check_outputs(const std::vector<Output>& outputs, const std::vector<std::string>& inputs) {
+  struct Known {
+    std::string key, what;
+    dev_t dev = 0;
+    ino_t ino = 0;
+    bool exists = false;
+  };
+  std::vector<Known> in, out;
+  for (const auto& p : inputs) {
+    struct stat st {};
+    if (!p.empty() && ::stat(p.c_str(), &st) == 0) in.push_back({p, p, st.st_dev, st.st_ino, true});
+  }
+  for (const Output& o : outputs) {
+    if (o.path.empty()) continue;
+    const std::string name = o.what + " " + in_quotes(o.path);
+    const std::string target = resolve_target(o.path);
+    if (fs::path(target).filename().string().size() > NAME_MAX)
+      throw UsageError(name + ": a file name of more than " + std::to_string(NAME_MAX) + " bytes");
+    Known k{fs::weakly_canonical(fs::absolute(target)).string(), o.what};
+    struct stat st {};
+    if (::stat(target.c_str(), &st) == 0) {
+      if (!S_ISREG(st.st_mode))
+        throw UsageError(name + " is " + kind_of(st.st_mode) + (o.append ? ": records are appended to a file only"
+                                                                          : ": refusing to replace it (an output must be a file)"));
+      if (::access(target.c_str(), W_OK) != 0) throw UsageError(name + " is not writable");
+      k.dev = st.st_dev, k.ino = st.st_ino, k.exists = true;
+      for (const Known& i : in)
+        if (i.dev == k.dev && i.ino == k.ino)
+          throw UsageError(name + " is the run's input " + in_quotes(i.what) + ": refusing to overwrite it");
+    } else {
+      const std::string dir = folder_of(target);
+      std::error_code ec;
+      if (o.append) fs::create_directories(dir, ec);
+      struct stat ds {};
+      if (::stat(dir.c_str(), &ds) != 0 || !S_ISDIR(ds.st_mode))
+        throw UsageError(name + ": the folder " + in_quotes(dir) + " does not exist");
+      if (::access(dir.c_str(), W_OK | X_OK) != 0) throw UsageError(name + ": the folder " + in_quotes(dir) + " is not writable");
+    }
+    for (const Known& other : out)
+      if (other.key == k.key || (k.exists && other.exists && other.dev == k.dev && other.ino == k.ino))
+        throw UsageError(name + " is also given as " + other.what + ": one file cannot be two outputs");
+    out.push_back(k);
+  }
+}
+
+std::string make_temp_beside(const std::string& path, int& slot) {
+  const std::string dir = folder_of(resolve_target(path));
+  std::string tmpl = dir + "/.hpcgi-XXXXXX";
+  std::vector<char> buf(tmpl.begin(), tmpl.end());
+  buf.push_back('\0');
+  const int fd = mkstemp(buf.data());  // O_CREAT | O_EXCL, a name no other process has
+  if (fd < 0) throw std::runtime_error("cannot write " + in_quotes(path) + ": " + std::strerror(errno));
+  const mode_t mask = umask(0);
+  umask(mask);
+  if (fchmod(fd, 0666 & ~mask) != 0) { /* keeps mkstemp's 0600: still correct, only less shared */ }
+  ::close(fd);
+  std::string tmp(buf.data());
+  slot = register_temp(tmp);
+  return tmp;
+}
+
+void release_temp(int slot) {
+  if (slot >= 0) g_used[slot].store(false);
+}
+
+AtomicFile::AtomicFile(const std::string& path) : path_(path), target_(resolve_target(path)) {
+  tmp_ = make_temp_beside(path, slot_);
+  f_ = std::fopen(tmp_.c_str(), "wb");
+  if (!f_) fail(std::strerror(errno));
+}
+
+AtomicFile::~AtomicFile() {
+  if (done_) return;
+  if (f_) std::fclose(f_);
+  ::unlink(tmp_.c_str());
+  release_temp(slot_);
+}
+
+void AtomicFile::fail(const std::string& reason) {
+  if (f_) std::fclose(f_);
+  f_ = nullptr;
+  ::unlink(tmp_.c_str());
+  release_temp(slot_);
+  done_ = true;
+  throw std::runtime_error("cannot write " + in_quotes(path_) + ": " + reason);
+}
+
+void AtomicFile::commit() {
+  // Buffered bytes reach the disk only here: a full disk shows at fflush, fsync or fclose.
+  if (std::fflush(f_) != 0 || std::ferror(f_) || fsync(fileno(f_)) != 0) fail(std::strerror(errno ? errno : EIO));
+  const int closed = std::fclose(f_);
+  f_ = nullptr;
+  if (closed != 0) fail(std::strerror(errno));
+  if (std::rename(tmp_.c_str(), target_.c_str()) != 0) fail(std::strerror(errno));
+  release_temp(slot_);
+  done_ = true;
+}
+
+}  // namespace hpcgi::files
