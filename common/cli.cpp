@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cstdio>
+#include <unistd.h>
 #include <exception>
 
 #include "common/comm.hpp"
@@ -90,6 +91,14 @@ CLI::Validator fraction_below_one() {
         return {};
       },
       "[0, 1)");
+}
+
+void check_threads(int threads) {
+  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+  const long most = 16 * std::max(1L, cpus);
+  if (threads > most)
+    throw UsageError("--threads " + std::to_string(threads) + " is more than 16 per CPU of this machine (" +
+                     std::to_string(cpus) + " online): at most " + std::to_string(most));
 }
 
 CLI::Validator byte_size() {

@@ -47,6 +47,10 @@ CLI::Validator integer_in(long long lo, long long hi);
 // A validator for a fraction: a finite number with 0 <= v < 1 (a threshold that keeps some form factors).
 CLI::Validator fraction_below_one();
 
+// --threads beyond 16 per online CPU is refused: no run gets faster so oversubscribed, and each thread holds a
+// stack and its buffers (4096 threads took 2.8 GB of a 12-patch run). 0 (the default) is always fine.
+void check_threads(int threads);
+
 // A validator for sizes in bytes ("67108864", "64M", "1.5G": common/memory.hpp's parse_bytes).
 CLI::Validator byte_size();
 

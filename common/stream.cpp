@@ -147,6 +147,7 @@ int main(int argc, char** argv) {
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
   return hpcgi::run_main("stream", [&] {
     hpcgi::files::check_outputs({{a.record_path, "--record", true}}, {});
+    hpcgi::check_threads(a.threads);
     if (a.threads > 0) omp_set_num_threads(a.threads);
     return run(a);
   });

@@ -162,6 +162,7 @@ int main(int argc, char** argv) {
 
   return hpcgi::run_main("poisson", [&]() -> int {
     hpcgi::check_tolerance(a.tol, a.precision);
+    hpcgi::check_threads(a.cfg.threads);
     hpcgi::files::check_outputs({{a.record_path, "--record", true}, {a.solution_path, "--solution"}}, {});
     a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision) : a.variant;
     const bool mpi = a.cfg.backend == "mpi";

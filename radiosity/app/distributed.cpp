@@ -37,7 +37,8 @@ void require_memory_per_rank(double limit, const NeedsAt& needs, int ranks, cons
     msg += "on " + std::to_string(fits) + " ranks each holds at most " +
            hpcgi::format_bytes(largest(needs(fits)).total()) + ": mpirun -np " + std::to_string(fits) + " " + how;
   else
-    msg += "no number of ranks up to 4096 fits (the vectors alone are " + hpcgi::format_bytes(worst.other_bytes) + ")";
+    msg += "no number of ranks up to 4096 fits (what every rank holds whatever their number, the vectors and buffers, is " +
+           hpcgi::format_bytes(worst.other_bytes) + ")";
   throw hpcgi::Agreed<hpcgi::UsageError>(msg);
 }
 

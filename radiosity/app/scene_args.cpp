@@ -59,6 +59,7 @@ void require_rows_for_ranks(size_t patches, int ranks) {
 }
 
 Mesh load_scene(const SceneArgs& a, double* seconds) {
+  hpcgi::check_threads(a.threads);
   if (a.threads > 0) omp_set_num_threads(a.threads);
   hpcgi::Timer t;
   Mesh m = load_rrv_scene(a.scene, a.load);

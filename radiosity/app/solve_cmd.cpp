@@ -271,12 +271,14 @@ int run_solve(const SolveArgs& a) {
   // compute can be off balance by at most their share (lights, usually a few percent).
   const std::vector<uint64_t> row_work(n, 1);
   auto split = [&](int p) { return dist ? dist::split_by_work(row_work, p) : std::vector<size_t>{0, n}; };
+  // Rank 0 draws the pictures: an RGB image, its depth buffer and its colour sums (render.cpp), 35 bytes a pixel.
+  const double picture_bytes = (a.png.empty() && a.snapshots.empty()) ? 0.0 : 35.0 * double(width) * double(height);
   const NeedsAt needs = [&](int p) {
     const std::vector<size_t> b = dist::split_by_work(row_work, p);  // p > 1 for a serial run: what mpi would hold
     std::vector<RankNeed> v;
     for (int r = 0; r < p; ++r) {
       const size_t rows = b[r + 1] - b[r];
-      v.push_back({rows, (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n), vector_bytes(n)});
+      v.push_back({rows, (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n), vector_bytes(n) + (r == 0 ? picture_bytes : 0)});
     }
     return v;
   };
@@ -291,8 +293,9 @@ int run_solve(const SolveArgs& a) {
                                                " rows "
                                          : std::string()) +
                                    gib(file_bytes) + (dense16 ? ", their 16-bit copy " + gib(copy_bytes) : "") +
-                                   ", vectors " + gib(vector_bytes(n)) + ")",
-                               file_bytes + copy_bytes + vector_bytes(n));
+                                   ", vectors " + gib(vector_bytes(n)) +
+                                   (root && picture_bytes > 0 ? ", the picture " + gib(picture_bytes) : "") + ")",
+                               file_bytes + copy_bytes + vector_bytes(n) + (root ? picture_bytes : 0));
   });
   hpcgi::Timer t;
   FormFactorRows ff;

@@ -47,7 +47,7 @@ std::vector<uint64_t> hemicube_row_work(const Mesh& mesh, const HemicubeParams& 
 
 // Bytes a computation of `rows` rows of an n-patch mesh holds besides the mesh: the rows' float32 values, the
 // patches' corners, and per thread a row of doubles, the patches' coordinates in the row's frame, its lists of
-// patches per face and the item and depth buffers of R² pixels.
+// patches per face and the item and depth buffers of R² pixels; and once the weight table of the 3R² pixels.
 double hemicube_memory_bytes(size_t n, size_t rows, int resolution, int threads);
 
 // The sum of the pixel weights over the whole hemicube: what a patch that sees only other patches gets as its row
