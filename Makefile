@@ -143,8 +143,9 @@ $(BUILD)/tests/%_tests: $$(call obj,$$(wildcard tests/unit/$$*/*.cpp)) $$(call m
 FUZZ_CXX     ?= clang++
 FUZZ_SECONDS ?= 60
 FUZZ_BUILD   ?= build-fuzz
-FUZZ_TARGETS := scene ff_file
+FUZZ_TARGETS := scene scene_nested ff_file
 FUZZ_SRC_scene   := tests/fuzz/fuzz_scene.cpp $(MOD_scene) common/files.cpp
+FUZZ_SRC_scene_nested := tests/fuzz/fuzz_scene_nested.cpp $(MOD_scene) common/files.cpp
 FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/ff_file.cpp radiosity/formfactor/form_factors.cpp common/files.cpp
 FUZZ_HEADERS := $(wildcard common/*.hpp radiosity/*.hpp radiosity/scene/*.hpp radiosity/formfactor/*.hpp tests/fuzz/*.hpp)
 $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)

@@ -92,11 +92,12 @@ def test_nan_form_factor_is_nonfinite(tmp_path):
     assert result["status"] == "nonfinite" and "step 1" in result["detail"], result
 
 
-# F = [[0, 2], [0, 0]], ρ = 1, E = 0 and B0 = (1, 1) from the radiosity attribute: r0 = E - A B0 = (1, -1),
-# α = 1/2, s = (-1/2, -1/2), t = A s = (1/2, -1/2): t·s = 0, BiCG-STAB's ω is 0 (tests/unit/solve/test_guards).
+# ρF = [[0, 2], [0, 0]] (F_01 = 1, a fraction the reader accepts, and ρ = 2), E = 0 and B0 = (1, 1) from the radiosity
+# attribute: r0 = E - A B0 = (1, -1), α = 1/2, s = (-1/2, -1/2), t = A s = (1/2, -1/2): t·s = 0, BiCG-STAB's ω is 0
+# (tests/unit/solve/test_guards).
 def test_bicgstab_breakdown_exits_3(tmp_path):
-    scene, ff = scene_with_ff(tmp_path, TWO.format(attrs='reflectivity="1,1,1" radiosity="1,1,1"'),
-                              lambda v: [0.0, 2.0, 0.0, 0.0])
+    scene, ff = scene_with_ff(tmp_path, TWO.format(attrs='reflectivity="2,2,2" radiosity="1,1,1"'),
+                              lambda v: [0.0, 1.0, 0.0, 0.0])
     result, _ = failed_solve(tmp_path, scene, ff, "--method", "bicgstab", "--precision", "double")
     assert result["status"] == "breakdown" and "omega = t.s/t.t ~ 0" in result["detail"], result
 
