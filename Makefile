@@ -118,7 +118,7 @@ $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common)
+$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common) $(if $(HAVE_CUDA),$(call obj,common/stream_gpu.cu))
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
