@@ -1,0 +1,194 @@
+"""The GPU kit (make gpu-kit, gpu-kit/run, make gpu-import), checked where there is no GPU: the folder's size and
+libraries, the dry-run plan against the case lists, a run from a copy in a clean environment (the CPU step, "no
+GPU", exit 3, nothing written outside its output folder), and the import of an archive with a fake GPU."""
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tarfile
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT, gpu_absent_reason, run
+
+KIT = ROOT / "build" / "gpu-kit"
+CLEAN = {"PATH": "/usr/bin:/bin"}  # env -i PATH=/usr/bin:/bin
+# What a kit binary may take from the node: glibc's parts, the GCC runtime, cuBLAS and the driver.
+ALLOWED = re.compile(r"^(linux-vdso|ld-linux-x86-64|libc|libm|libdl|librt|libpthread|libstdc\+\+|libgcc_s|libgomp|"
+                     r"libcublas|libcublasLt|libcuda)\.so")
+GPU_CASE = re.compile(r"--backend (cublas1|cublas2|cuda|cublas|hybrid)(\s|$)")
+
+
+def clean_run(args, cwd, timeout=600):
+    return subprocess.run(["/usr/bin/env", "-i", *(f"{k}={v}" for k, v in CLEAN.items()), *map(str, args)],
+                          cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def kit():
+    if shutil.which("nvcc") is None and not Path("/usr/local/cuda/bin/nvcc").exists():
+        pytest.skip("no nvcc on this machine: make gpu-kit cannot build the kit")
+    p = run(["make", "--no-print-directory", "gpu-kit"], cwd=ROOT, timeout=3600)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    return KIT
+
+
+def tree(folder):
+    """{relative path: (size, mtime, sha256)} of every file and link under folder."""
+    out = {}
+    for p in sorted(Path(folder).rglob("*")):
+        if p.is_file() or p.is_symlink():
+            out[str(p.relative_to(folder))] = (p.lstat().st_size, p.lstat().st_mtime_ns,
+                                               hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "")
+    return out
+
+
+def cublas_dir():
+    for d in (os.environ.get("CUDA_HOME", "/usr/local/cuda") + "/lib64", "/usr/local/cuda/lib64"):
+        if (Path(d) / "libcublas.so.13").exists():
+            return d
+    pytest.skip("no cuBLAS 13 on this machine")
+
+
+def paper_gpu_cases():
+    """(experiment, index, line) of every GPU case of the paper preset, read here from the lists themselves."""
+    out = []
+    for f in sorted((ROOT / "slurm" / "cases" / "paper").glob("*.txt")):
+        lines = [l for l in f.read_text().splitlines() if l.strip() and not l.lstrip().startswith("#")]
+        out += [(f.stem, k, l) for k, l in enumerate(lines) if GPU_CASE.search(l)]
+    return out
+
+
+def test_the_kit_is_at_most_60_mib_and_holds_what_the_node_needs(kit):
+    total = sum(p.stat().st_size for p in kit.rglob("*") if p.is_file())
+    assert total <= 60 * 2**20, f"{total / 2**20:.1f} MiB"
+    for f in ("run", "bin/poisson", "bin/radiosity", "bin/stream", "bin/solve_tests", "radiosity/scenes/scene1.xml",
+              "radiosity/scenes/scene2.xml", "scenes/rrv/room2.xml", "scenes/rrv/room3.xml", "scenes/rrv/teapot.obj",
+              "scenes/rrv/COPYING", "common/machine_label.py", "analysis/records.py",
+              "tests/integration/test_radiosity_gpu.py", "KIT-MANIFEST.json"):
+        assert (kit / f).is_file(), f
+    for f in (ROOT / "slurm" / "cases" / "paper").glob("*.txt"):  # copied, not retyped
+        assert (kit / "cases" / "paper" / f.name).read_bytes() == f.read_bytes(), f.name
+
+
+def test_every_library_resolves_inside_the_kit_or_is_an_allowed_one(kit):
+    env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": cublas_dir()}  # as the kit sets it: cuBLAS from the node
+    carried = set()
+    for b in sorted((kit / "bin").iterdir()):
+        out = subprocess.run(["ldd", str(b)], capture_output=True, text=True, env=env).stdout
+        assert "not found" not in out, f"{b.name}:\n{out}"
+        for line in out.splitlines():
+            name = line.split()[0]
+            where = line.split("=>")[1].split()[0] if "=>" in line else name
+            if os.path.realpath(where).startswith(str(kit.resolve()) + "/"):
+                carried.add(name)
+            else:
+                assert ALLOWED.match(os.path.basename(name)), f"{b.name}: {line.strip()} is outside the kit"
+        assert "libcudart" not in out, f"{b.name}: CUDA's runtime must be linked statically"
+        dyn = subprocess.run(["readelf", "-d", str(b)], capture_output=True, text=True).stdout
+        assert "$ORIGIN/../lib" in dyn, f"{b.name} has no $ORIGIN run path"
+    assert {"libpugixml.so.1", "libpng16.so.16"} <= carried, carried
+
+
+def test_dry_run_lists_every_step_within_420_s_and_the_case_lists_gpu_cases(kit):
+    p = clean_run([kit / "run", "--dry-run", "--json"], cwd=kit)
+    assert p.returncode == 0, p.stderr
+    plan = json.loads(p.stdout)
+    assert [(c["experiment"], c["index"], c["line"]) for c in plan["gpu_cases"]] == paper_gpu_cases()
+    assert len(plan["gpu_cases"]) == 35
+    names = [s["name"] for s in plan["steps"]]
+    for exp, k, line in paper_gpu_cases():
+        assert f"{exp} case {k}: {line}" in names
+    assert all(s["estimate_s"] > 0 for s in plan["steps"])
+    assert sum(s["estimate_s"] for s in plan["steps"]) + plan["reserve_s"] <= 420
+    text = clean_run([kit / "run", "--dry-run"], cwd=kit)
+    assert text.returncode == 0 and "skip (budget)" not in text.stdout, text.stdout
+    total = re.search(r"total of the steps that fit: (\d+) s of (\d+) s", text.stdout)
+    assert total and int(total.group(1)) <= 420 - plan["reserve_s"], text.stdout
+    for s in plan["steps"]:
+        assert re.search(rf"^\s*{s['estimate_s']} s\s+run\s+\[{re.escape(s['group'])}\] {re.escape(s['name'])}$",
+                         text.stdout, re.M), s
+
+
+def test_bad_budget_is_refused_with_one_line(kit):
+    p = clean_run([kit / "run", "--dry-run", "--budget", "5"], cwd=kit)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+def test_a_copy_run_in_a_clean_environment_says_no_gpu_and_writes_only_its_output(kit, tmp_path):
+    if gpu_absent_reason() is None:
+        pytest.skip("a GPU is present: this test checks the kit where there is none")
+    copy = tmp_path / "kit"
+    shutil.copytree(kit, copy, symlinks=True)
+    work = tmp_path / "work"
+    work.mkdir()
+    before = tree(tmp_path)
+    p = clean_run([copy / "run", "--out", tmp_path / "out"], cwd=work)
+    assert p.returncode == 3, p.stdout + p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and "no GPU" in p.stderr, p.stderr
+    assert "ok form factors of scene1.xml" in p.stdout, p.stdout
+    ff = tmp_path / "out" / "ff" / "paper-scene1.ff"
+    assert ff.stat().st_size > 1312 * 1312 * 4
+    assert not list((tmp_path / "out" / "ff").glob("paper-scene2*")), "only the CPU step of scene 1 runs"
+    after = {k: v for k, v in tree(tmp_path).items() if not k.startswith("out/")}
+    assert after == before, "files were written outside the output folder"
+    assert not list((tmp_path / "out" / "results").rglob("*.jsonl")) or all(
+        "formfactors" in str(f) for f in (tmp_path / "out" / "results").rglob("*.jsonl"))
+
+
+def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"):
+    """A kit's output folder with two records of a fake GPU, marked as a test, as gpu-kit/run leaves it."""
+    rec = lambda i: {"schema": "hpcgi-record/1", "app": "poisson", "params": {"n": 64 * i, "backend": "cuda"},
+                     "result": {"converged": True}, "times_s": {"solve": 0.1 * i},
+                     "backend_info": {"gpu": gpu}, "provenance": {"env": {"HPCGI_CASE": f"test/{i}"}}}
+    d = out / "results" / label / "table41"
+    d.mkdir(parents=True)
+    (d / "paper.jsonl").write_text("".join(json.dumps(rec(i)) + "\n" for i in (1, 2)))
+    (out / "results" / label / "machine.json").write_text(json.dumps({"label": label, "gpu": gpu}))
+    (out / "logs").mkdir()
+    (out / "logs" / "progress.log").write_text("test\n")
+    (out / "summary.md").write_text("# test\n")
+    sys.path.insert(0, str(ROOT))
+    from gpukit import driver
+    return driver.pack_archive(out, label)
+
+
+def gpu_import(archive, results):
+    return run(["make", "--no-print-directory", "gpu-import", f"ARCHIVE={archive}", f"RESULTS={results}"], cwd=ROOT)
+
+
+def test_gpu_import_puts_records_under_the_node_label_append_only(tmp_path):
+    label = "test-fake-gpu-node"
+    archive = fake_out(tmp_path / "out", label)
+    results = tmp_path / "results"
+    p = gpu_import(archive, results)
+    assert p.returncode == 0, p.stderr
+    target = results / label / "table41" / "paper.jsonl"
+    lines = target.read_text().splitlines()
+    assert [json.loads(l)["params"]["n"] for l in lines] == [64, 128]
+    assert json.loads((results / label / "machine.json").read_text())["gpu"].startswith("TEST fake GPU")
+    target.write_text(target.read_text() + '{"schema":"hpcgi-record/1","earlier":true}\n')  # a record already there
+    old = target.read_bytes()
+    p = gpu_import(archive, results)  # again: nothing twice, nothing changed
+    assert p.returncode == 0 and "0 records" in p.stdout, p.stdout + p.stderr
+    assert target.read_bytes() == old
+    shutil.rmtree(results / label)  # the fake GPU's records are removed
+
+
+def test_gpu_import_refuses_a_truncated_archive_or_a_record_without_gpu_with_one_line(tmp_path):
+    archive = fake_out(tmp_path / "out", "test-fake-gpu-node")
+    cut = tmp_path / "cut.tar.gz"
+    cut.write_bytes(archive.read_bytes()[: archive.stat().st_size // 2])
+    results = tmp_path / "results"
+    p = gpu_import(cut, results)
+    assert p.returncode != 0 and "truncated or damaged" in p.stderr, p.stderr
+    assert len([l for l in p.stderr.splitlines() if l.startswith("gpu-import:")]) == 1, p.stderr
+    assert not results.exists()
+    no_gpu = fake_out(tmp_path / "out2", "test-fake-gpu-node", gpu="")
+    p = gpu_import(no_gpu, results)
+    assert p.returncode != 0 and "no GPU" in p.stderr, p.stderr
+    assert not results.exists()
