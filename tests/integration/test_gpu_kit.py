@@ -192,3 +192,82 @@ def test_gpu_import_refuses_a_truncated_archive_or_a_record_without_gpu_with_one
     p = gpu_import(no_gpu, results)
     assert p.returncode != 0 and "no GPU" in p.stderr, p.stderr
     assert not results.exists()
+
+
+def kit_modules():
+    sys.path.insert(0, str(ROOT))
+    from gpukit import driver, summary
+    return driver, summary
+
+
+def test_a_step_that_does_not_fit_is_skipped_by_name_and_the_archive_still_made(kit, tmp_path, monkeypatch):
+    """The GPU path of gpu-kit/run with the GPU probe answered 'present' and a budget that fits only scene 1."""
+    driver, _ = kit_modules()
+    monkeypatch.setattr(driver.Driver, "probe_gpu", lambda self: (None, None))
+    monkeypatch.setattr(driver, "KIT", kit)
+    a = driver.argparse.Namespace(out=str(tmp_path / "out"), budget=driver.RESERVE_S + 2.0, dry_run=False, json=False)
+    d = driver.Driver(a)
+    d.label = "test-fake-gpu-node"
+    steps = d.plan()
+    assert driver.run(d, steps) == 0
+    assert [n for n, _, _ in d.done] == ["form factors of scene1.xml"]
+    assert d.skipped == [s.name for s in steps[1:]] and not d.failed
+    archive = tmp_path / "out" / "gpu-kit-test-fake-gpu-node.tar.gz"
+    assert archive.stat().st_size <= 16 * 2**20
+    with tarfile.open(archive) as t:
+        names = t.getnames()
+    assert {"summary.md", "logs/progress.log", "results/test-fake-gpu-node/machine.json"} <= set(names), names
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert f"- skipped (budget or missing tool): {len(steps) - 1}" in text
+
+
+def gpu_record(path, **change):
+    """A committed CPU record of this project reshaped as a GPU run: the record layout the summary reads."""
+    rec = json.loads((ROOT / path).read_text().splitlines()[0])
+    for key, value in change.items():
+        part, field = key.split("__")
+        rec.setdefault(part, {})[field] = value
+    rec["backend_info"]["gpu"] = "TEST fake GPU (tests/integration/test_gpu_kit.py)"
+    return rec
+
+
+def test_summary_judges_the_speed_targets_from_records_that_count(tmp_path):
+    _, summary = kit_modules()
+    res = tmp_path / "results"
+    t41 = ROOT / "results" / "vm-amd-epyc-2c" / "table41" / "quick.jsonl"
+    t43 = ROOT / "results" / "vm-amd-epyc-2c" / "table43" / "quick.jsonl"
+    stream = gpu_record(ROOT / "results" / "vm-amd-epyc-2c" / "bench-stream" / "quick.jsonl", perf__triad_GBps=4000.0,
+                        perf__read_GBps=4200.0)
+    cg = gpu_record(t41, params__n=8192, params__backend="cuda", times_s__solve=12.5)
+    slow = gpu_record(t41, params__n=8192, params__backend="cublas1", times_s__solve=30.0, result__converged=False)
+    jac = gpu_record(t43, params__scene="/kit/scenes/rrv/room2.xml", params__backend="cuda", times_s__solve=0.010,
+                     perf__bandwidth_GBps=3500.0, result__status="steps_done", result__iterations=32)
+    for exp, recs in (("gpu-stream", [stream]), ("table41", [cg, slow]), ("table43-steps32", [jac])):
+        (res / exp).mkdir(parents=True)
+        (res / exp / "paper.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    text = summary.write(res, ROOT / "results" / "paper")
+    assert "triad 4000 GB/s" in text
+    assert "Poisson CG N = 8192, cuda: 12.50 s (target <= 15 s on an H200; report 747 s with cuBLAS 1): holds" in text
+    assert "Jacobi, scene 4, 32 steps, cuda: 10.00 ms" in text and "88% of the triad (target >= 85%): holds" in text
+    row = [l for l in text.splitlines() if l.startswith("| cublas1 | 8192 |")]
+    assert len(row) == 1 and row[0].endswith("| NO |"), row  # did not converge: listed, not counted
+    assert "| 747" in row[0] or "747" in row[0]
+
+
+def test_the_checks_of_the_correctness_steps():
+    driver, _ = kit_modules()
+    rec = lambda be, it, e, variant="onesweep": {"params": {"backend": be, "variant": variant},
+                                                 "result": {"iterations": it, "error_inf": e}}
+    assert driver.poisson_agree([rec("openmp", 1581, 3.1416e-6), rec("cuda", 1582, 3.1417e-6)]) is None
+    assert "iterations" in driver.poisson_agree([rec("openmp", 1581, 3.1416e-6), rec("cuda", 1583, 3.1416e-6)])
+    assert "4 digits" in driver.poisson_agree([rec("openmp", 1581, 3.1416e-6), rec("cublas1", 1581, 3.15e-6)])
+    assert driver.sanitizer_clean("========= ERROR SUMMARY: 0 errors\n") is None
+    assert driver.sanitizer_clean("========= RACECHECK SUMMARY: 0 hazards displayed (0 errors, 0 warnings)\n") is None
+    assert "2 hazards" in driver.sanitizer_clean("========= RACECHECK SUMMARY: 2 hazards displayed (2 errors, 0 "
+                                                 "warnings)\n")
+    assert driver.sanitizer_clean("no summary at all") == "compute-sanitizer: no summary line"
+    assert driver.gpu_tests_ran("[  SKIPPED ] the GPU backends cannot run here: ...") is not None
+    ok = {"result": {"status": "converged"}, "verify": {"agreed": True}}
+    assert driver.converged_and_agreed(ok) is None
+    assert "float64" in driver.converged_and_agreed({"result": {"status": "converged"}, "verify": {"agreed": False}})
+    assert "max_iter" in driver.converged_and_agreed({"result": {"status": "max_iter"}, "verify": None})
