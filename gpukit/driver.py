@@ -166,7 +166,7 @@ class Driver:
         for c in ffcases:
             scene = Path(c.argv(tok)[2]).name
             steps.append(Step(f"form factors of {scene}", "formfactors", FF_ESTIMATE_S.get(scene, 30),
-                              [Cmd(kit_argv(c), "formfactors", c.case_id)]))
+                              [Cmd(kit_argv(c))]))  # CPU work: not recorded (the archive holds GPU records)
         ff1 = self.out / "ff" / "paper-scene1.ff"
         ff2 = self.out / "ff" / "paper-scene2.ff"
         scene = lambda k: str(KIT / "radiosity" / "scenes" / f"scene{k}.xml")
@@ -223,7 +223,8 @@ class Driver:
                                for name, args in configs.items()]))
         for n, est in ((256, 5), (1024, 8)):
             steps.append(Step(f"Poisson GPU backends against the CPU at N = {n}", "correctness", est,
-                              [Cmd([b("poisson"), "--backend", be, *extra, "--n", str(n)], "gpu-correctness",
+                              [Cmd([b("poisson"), "--backend", be, *extra, "--n", str(n)],
+                                   None if be == "openmp" else "gpu-correctness",
                                    f"kit/poisson-agree/{n}/{be}{'-'.join([''] + extra[1:])}", poisson_converged, True)
                                for be, extra in (("openmp", []), ("cublas1", []), ("cublas2", []), ("cuda", []),
                                                  ("cuda", ["--variant", "classic"]))], poisson_agree))
@@ -259,11 +260,14 @@ class Driver:
     def run_cmd(self, step, cmd, log):
         argv = list(cmd.argv)
         env = dict(self.env)
-        if cmd.experiment:
+        if Path(argv[0]).name in ("poisson", "radiosity", "stream"):
+            argv.append("--quiet")
+            if cmd.json_out:
+                argv.append("--json")
+        if cmd.experiment:  # only GPU runs are recorded: every record of the archive carries its GPU
             rec = self.records(cmd.experiment)
             rec.parent.mkdir(parents=True, exist_ok=True)
-            if Path(argv[0]).name in ("poisson", "radiosity", "stream"):
-                argv += ["--quiet", "--record", str(rec)] + (["--json"] if cmd.json_out else [])
+            argv += ["--record", str(rec)]
             env.update(HPCGI_EXPERIMENT=cmd.experiment, HPCGI_PRESET=PRESET, HPCGI_CASE=cmd.case_id or "",
                        HPCGI_REPEAT="0")
         limit = max(1.0, self.left() - RESERVE_S)

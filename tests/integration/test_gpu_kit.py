@@ -136,8 +136,7 @@ def test_a_copy_run_in_a_clean_environment_says_no_gpu_and_writes_only_its_outpu
     assert not list((tmp_path / "out" / "ff").glob("paper-scene2*")), "only the CPU step of scene 1 runs"
     after = {k: v for k, v in tree(tmp_path).items() if not k.startswith("out/")}
     assert after == before, "files were written outside the output folder"
-    assert not list((tmp_path / "out" / "results").rglob("*.jsonl")) or all(
-        "formfactors" in str(f) for f in (tmp_path / "out" / "results").rglob("*.jsonl"))
+    assert not list((tmp_path / "out" / "results").rglob("*.jsonl")), "a record without a GPU"
 
 
 def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"):
@@ -271,3 +270,41 @@ def test_the_checks_of_the_correctness_steps():
     assert driver.converged_and_agreed(ok) is None
     assert "float64" in driver.converged_and_agreed({"result": {"status": "converged"}, "verify": {"agreed": False}})
     assert "max_iter" in driver.converged_and_agreed({"result": {"status": "max_iter"}, "verify": None})
+
+
+def test_every_gpu_command_of_the_plan_is_accepted_and_refused_only_for_want_of_a_gpu(kit, tmp_path, monkeypatch):
+    """Each command the kit would run on the node, run here: a misspelt option would end the node's run with exit 2
+    too, so the refusal must be the GPU's. The rooms' form factors take minutes here: their commands run on scene
+    1 (the same options), with form factors at hemicube R = 16 (the solve does not depend on R)."""
+    if gpu_absent_reason() is None:
+        pytest.skip("a GPU is present: the kit's own run checks its commands there")
+    driver, _ = kit_modules()
+    monkeypatch.setattr(driver, "KIT", kit)
+    out = tmp_path / "out"
+    (out / "ff").mkdir(parents=True)
+    env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": cublas_dir()}
+    for k in (1, 2):
+        p = subprocess.run([kit / "bin" / "radiosity", "formfactors", kit / "radiosity" / "scenes" / f"scene{k}.xml",
+                            "-o", out / "ff" / f"paper-scene{k}.ff", "--hemicube", "16", "--quiet"], env=env)
+        assert p.returncode == 0
+    d = driver.Driver(driver.argparse.Namespace(out=str(out), budget=420.0, dry_run=False, json=False))
+    d.label = "test"
+    scene1 = str(kit / "radiosity" / "scenes" / "scene1.xml")
+    seen = set()
+    for step in d.plan():
+        for c in step.commands:
+            argv = [str(x) for x in c.argv]
+            if "compute-sanitizer" in argv[0]:
+                argv = argv[5:]  # compute-sanitizer --tool T --error-exitcode 9 PROGRAM ...
+            if step.group == "formfactors" or argv[0].endswith("solve_tests"):
+                continue
+            if any(x.endswith(("room2.xml", "room3.xml")) for x in argv):
+                argv = [scene1 if x.endswith(("room2.xml", "room3.xml")) else
+                        str(out / "ff" / "paper-scene1.ff") if x.endswith(".ff") else x
+                        for x in argv if x != "--allow-reflectivity-ge-1"]
+            if "--backend openmp" in " ".join(argv) or tuple(argv) in seen:  # the CPU reference; repeats
+                continue
+            seen.add(tuple(argv))
+            p = subprocess.run(argv + ["--quiet"], cwd=kit, env=env, capture_output=True, text=True, timeout=120)
+            assert p.returncode == 2 and "needs an NVIDIA GPU" in p.stderr, (argv, p.stderr)
+    assert len(seen) >= 60, len(seen)
