@@ -24,6 +24,7 @@ import argparse
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tarfile
@@ -275,10 +276,9 @@ class Driver:
             f.write("$ " + " ".join(argv) + "\n")
             f.flush()
             try:
-                p = subprocess.run(argv, cwd=KIT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                   text=True, errors="replace", timeout=limit)
+                p = run_group(argv, env, limit)
             except subprocess.TimeoutExpired:
-                return f"ran past what was left of the budget ({limit:.0f} s)", None
+                return f"ran past what was left of the budget ({limit:.0f} s): stopped", None
             except OSError as e:
                 return f"cannot run {argv[0]}: {e}", None
             f.write(p.stdout)
@@ -337,6 +337,23 @@ class Driver:
         if p.returncode == 2 and "needs an NVIDIA GPU" in p.stderr:
             return "absent", p.stderr.strip()
         return "broken", f"bin/poisson --backend cuda --n 4 exited {p.returncode}: {p.stderr.strip()}"
+
+
+def run_group(argv, env, limit):
+    """subprocess.run in a process group of its own, the whole group killed at the time limit (compute-sanitizer
+    runs the program as its child, which a plain timeout would leave running)."""
+    p = subprocess.Popen(argv, cwd=KIT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                         errors="replace", start_new_session=True)
+    try:
+        out, _ = p.communicate(timeout=limit)
+    except subprocess.TimeoutExpired:
+        try:
+            os.killpg(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        p.communicate()
+        raise
+    return subprocess.CompletedProcess(argv, p.returncode, out)
 
 
 def case_estimate(c):

@@ -12,6 +12,7 @@ SYSTEM = ("linux-vdso", "linux-gate", "ld-linux-x86-64", "ld-linux-aarch64", "li
           "libpthread", "libutil", "libresolv", "libmvec", "libstdc++", "libgcc_s", "libgomp")
 CUDA = ("libcublas", "libcublasLt", "libcuda", "libnvidia-ml", "libnvidia-ptxjitcompiler")
 CUBLAS_SONAMES = ("libcublas.so.13", "libcublasLt.so.13")
+DEFAULT_TOOLKIT = "/usr/local/cuda"
 
 
 def stem(name):
@@ -64,7 +65,7 @@ def cublas_candidates(environ):
             seen.add(d)
             out.append((d, how))
 
-    for home, how in ((environ.get("CUDA_HOME"), "CUDA_HOME"), ("/usr/local/cuda", "/usr/local/cuda")):
+    for home, how in ((environ.get("CUDA_HOME"), "CUDA_HOME"), (DEFAULT_TOOLKIT, DEFAULT_TOOLKIT)):
         if home:
             add(os.path.join(home, "lib64"), f"the CUDA toolkit ({how}/lib64)")
             add(os.path.join(home, "targets", "x86_64-linux", "lib"), f"the CUDA toolkit ({how}/targets/x86_64-linux/lib)")

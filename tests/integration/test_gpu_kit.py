@@ -308,3 +308,22 @@ def test_every_gpu_command_of_the_plan_is_accepted_and_refused_only_for_want_of_
             p = subprocess.run(argv + ["--quiet"], cwd=kit, env=env, capture_output=True, text=True, timeout=120)
             assert p.returncode == 2 and "needs an NVIDIA GPU" in p.stderr, (argv, p.stderr)
     assert len(seen) >= 60, len(seen)
+
+
+def test_cublas_comes_from_the_toolkit_first_else_from_the_nvidia_cublas_package(tmp_path, monkeypatch):
+    sys.path.insert(0, str(ROOT))
+    from gpukit import libs
+    toolkit, site = tmp_path / "cuda", tmp_path / "site-packages"
+    pkg = site / "nvidia" / "cublas" / "lib"
+    for d in (toolkit / "lib64", pkg):
+        d.mkdir(parents=True)
+        for so in ("libcublas.so.13", "libcublasLt.so.13"):
+            (d / so).write_bytes(b"")
+    monkeypatch.setattr(libs, "DEFAULT_TOOLKIT", str(tmp_path / "no-cuda"))
+    monkeypatch.setattr(sys, "path", [str(site)] + sys.path)
+    assert libs.find_cublas({"CUDA_HOME": str(toolkit)}) == (str(toolkit / "lib64"), f"the CUDA toolkit (CUDA_HOME/lib64)")
+    where, how = libs.find_cublas({})
+    assert where == str(pkg) and "nvidia-cublas Python package" in how
+    (pkg / "libcublasLt.so.13").unlink()  # both libraries, or it is not cuBLAS 13
+    where, how = libs.find_cublas({})
+    assert where is None and how.startswith("searched ")
