@@ -208,9 +208,11 @@ clean:
 # objects (KIT_BUILD; KIT_OPT instead of -march=native, since the node's CPU is not this one), linked by
 # gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run.
 KIT        ?= build/gpu-kit
-KIT_BUILD  ?= build/gpu-kit-obj
 CUDA_ARCHS ?= $(CUDA_ARCH)
 KIT_OPT    ?= -O3 -march=x86-64-v3
+# make does not rebuild objects when flags change: each configuration (archs, flags, compilers) builds into a folder
+# of its own, so CUDA_ARCHS="80 90" never packs objects compiled for 90 alone.
+KIT_BUILD  ?= build/gpu-kit-obj/$(shell echo '$(CUDA_ARCHS) | $(KIT_OPT) | $(CXX) | $(NVCC)' | md5sum | cut -c1-8)
 RRV_SCENES ?= ../shared/scenes/rrv
 KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)) \
                -gencode arch=compute_$(lastword $(CUDA_ARCHS)),code=compute_$(lastword $(CUDA_ARCHS))
