@@ -171,7 +171,7 @@ class Driver:
         ff1 = self.out / "ff" / "paper-scene1.ff"
         ff2 = self.out / "ff" / "paper-scene2.ff"
         scene = lambda k: str(KIT / "radiosity" / "scenes" / f"scene{k}.xml")
-        # Bandwidth: the limit. (The CPU's too, for the hybrid's CPU side.)
+        # Bandwidth: the limit every GPU number is judged by.
         steps.append(Step("GPU triad and read sweep (bin/stream --device gpu)", "bandwidth", 5,
                           [Cmd([b("stream"), "--device", "gpu"], "gpu-stream", "kit/gpu-stream")]))
         # Correctness.
