@@ -321,7 +321,8 @@ class Driver:
                 bad.append(why)
         if bad:
             self.failed.append(f"{step.name}: " + "; ".join(bad))
-            self.say(f"FAILED {step.name} ({time.monotonic() - t:.1f} s): " + "; ".join(bad) + f" (see logs/{log.name})")
+            self.say(f"FAILED {step.name} ({time.monotonic() - t:.1f} s): " + "; ".join(bad) +
+                     f" (see logs/{log.name})")
             return False
         self.done.append((step.name, time.monotonic() - t, step.estimate_s))
         self.say(f"ok {step.name} ({time.monotonic() - t:.1f} s, estimated {step.estimate_s} s)")

@@ -68,7 +68,8 @@ def cublas_candidates(environ):
     for home, how in ((environ.get("CUDA_HOME"), "CUDA_HOME"), (DEFAULT_TOOLKIT, DEFAULT_TOOLKIT)):
         if home:
             add(os.path.join(home, "lib64"), f"the CUDA toolkit ({how}/lib64)")
-            add(os.path.join(home, "targets", "x86_64-linux", "lib"), f"the CUDA toolkit ({how}/targets/x86_64-linux/lib)")
+            add(os.path.join(home, "targets", "x86_64-linux", "lib"),
+                f"the CUDA toolkit ({how}/targets/x86_64-linux/lib)")
     import site
     import sys
     sites = list(sys.path)

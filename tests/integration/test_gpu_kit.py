@@ -185,7 +185,8 @@ def test_gpu_import_refuses_a_truncated_archive_or_a_record_without_gpu_with_one
     results = tmp_path / "results"
     p = gpu_import(cut, results)
     assert p.returncode != 0 and "truncated or damaged" in p.stderr, p.stderr
-    assert len([l for l in p.stderr.splitlines() if not re.match(r"make(\[\d+\])?: ", l)]) == 1, p.stderr  # make's own aside
+    own = [l for l in p.stderr.splitlines() if not re.match(r"make(\[\d+\])?: ", l)]  # less make's own aside
+    assert len(own) == 1, p.stderr
     assert not results.exists()
     no_gpu = fake_out(tmp_path / "out2", "test-fake-gpu-node", gpu="")
     p = gpu_import(no_gpu, results)
@@ -336,7 +337,7 @@ def test_cublas_comes_from_the_toolkit_first_else_from_the_nvidia_cublas_package
             (d / so).write_bytes(b"")
     monkeypatch.setattr(libs, "DEFAULT_TOOLKIT", str(tmp_path / "no-cuda"))
     monkeypatch.setattr(sys, "path", [str(site)] + sys.path)
-    assert libs.find_cublas({"CUDA_HOME": str(toolkit)}) == (str(toolkit / "lib64"), f"the CUDA toolkit (CUDA_HOME/lib64)")
+    assert libs.find_cublas({"CUDA_HOME": str(toolkit)}) == (str(toolkit / "lib64"), "the CUDA toolkit (CUDA_HOME/lib64)")
     where, how = libs.find_cublas({})
     assert where == str(pkg) and "nvidia-cublas Python package" in how
     (pkg / "libcublasLt.so.13").unlink()  # both libraries, or it is not cuBLAS 13
