@@ -76,7 +76,7 @@ EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accu
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
-.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench scenes FORCE
+.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench scenes gpu-kit gpu-import FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
 	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
@@ -94,6 +94,8 @@ help:
 	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
 	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
+	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
+	@echo "make gpu-import ARCHIVE=FILE   the records of a kit's archive into results/<its machine>/"
 	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
@@ -122,7 +124,7 @@ $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common)
+$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common) $(if $(HAVE_CUDA),$(call obj,common/stream_gpu.cu))
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
@@ -215,5 +217,31 @@ audit:
 
 clean:
 	rm -rf $(BUILD) $(BIN)
+
+# The GPU kit (README, section "On a bare GPU node"): the programs built for CUDA_ARCHS without MPI into their own
+# objects (KIT_BUILD; KIT_OPT instead of -march=native, since the node's CPU is not this one), linked by
+# gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run.
+KIT        ?= build/gpu-kit
+CUDA_ARCHS ?= $(CUDA_ARCH)
+KIT_OPT    ?= -O3 -march=x86-64-v3
+# make does not rebuild objects when flags change: each configuration (archs, flags, compilers) builds into a folder
+# of its own, so CUDA_ARCHS="80 90" never packs objects compiled for 90 alone.
+KIT_BUILD  ?= build/gpu-kit-obj/$(shell echo '$(CUDA_ARCHS) | $(KIT_OPT) | $(CXX) | $(NVCC)' | md5sum | cut -c1-8)
+RRV_SCENES ?= $(shell radiosity/scenes/rrv/dir)
+KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)) \
+               -gencode arch=compute_$(lastword $(CUDA_ARCHS)),code=compute_$(lastword $(CUDA_ARCHS))
+gpu-kit:
+	@$(if $(HAVE_CUDA),,echo "make gpu-kit: needs nvcc (CUDA 13) on PATH or NVCC=...; none found" >&2; exit 2)
+	@$(MAKE) --no-print-directory -f Makefile -f gpukit/link.mk BUILD=$(KIT_BUILD) BIN=$(KIT_BUILD)/bin \
+	  MPICXX=no-mpi-in-the-kit OPT="$(KIT_OPT)" NVCCFLAGS="-O3 -std=c++17 $(KIT_GENCODE) -Xcompiler -fopenmp" \
+	  $(KIT_BUILD)/bin/poisson $(KIT_BUILD)/bin/radiosity $(KIT_BUILD)/bin/stream $(KIT_BUILD)/tests/solve_tests
+	$(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit $(KIT) --cuda-home "$(CUDA_HOME)" --archs "$(CUDA_ARCHS)" \
+	  --rrv-scenes "$(RRV_SCENES)"
+
+# Brings a kit's archive home: its records into results/<the GPU node's label>/ (append-only; refuses a truncated
+# archive or a record without a GPU with one line).
+gpu-import:
+	@test -n "$(ARCHIVE)" || { echo "make gpu-import: say which archive: make gpu-import ARCHIVE=FILE" >&2; exit 2; }
+	$(PYTHON) gpukit/import_archive.py "$(ARCHIVE)" --results $(or $(RESULTS),results)
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

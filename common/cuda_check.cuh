@@ -4,6 +4,7 @@
 #include <cublas_v2.h>
 #include <cuda_runtime.h>
 
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -31,7 +32,11 @@ namespace hpcgi {
       ::hpcgi::cuda_fail(#call, cublasGetStatusString(st_), __FILE__, __LINE__);                 \
   } while (0)
 
-// Throws UsageError (exit status 2) when no usable GPU is present, naming what CUDA said.
+// Throws UsageError (exit status 2) when no usable GPU is present, naming what CUDA said. Counting devices is not
+// enough: a GPU that is present but cannot be used (no fabric manager on a multi-GPU board, exclusive-process mode
+// taken by another process, a driver too old for this runtime) is only found out when a context is made, so the
+// check makes the primary context of the current device here (cudaFree(nullptr)). Every caller's next CUDA call
+// would make it anyway.
 inline void require_gpu(const std::string& who) {
   int count = 0;
   cudaError_t err = cudaGetDeviceCount(&count);
@@ -40,6 +45,35 @@ inline void require_gpu(const std::string& who) {
     throw UsageError(who + " needs an NVIDIA GPU, and none is usable here (" +
                      (err != cudaSuccess ? std::string(cudaGetErrorString(err)) : std::string("no device")) + ")");
   }
+  err = cudaFree(nullptr);
+  if (err != cudaSuccess) {
+    cudaGetLastError();
+    throw UsageError(who + " needs an NVIDIA GPU, and none is usable here (" + std::to_string(count) +
+                     " device(s) found, but no context could be made on device 0: " + cudaGetErrorString(err) + ")");
+  }
+}
+
+// The current GPU, for a record's backend_info: model, compute capability, memory, clocks, runtime and driver.
+inline std::map<std::string, std::string> gpu_info() {
+  int dev = 0, rt = 0, drv = 0, clock_khz = 0, mem_clock_khz = 0, bus_bits = 0, sms = 0;
+  cudaDeviceProp prop{};
+  CUDA_CHECK(cudaGetDevice(&dev));
+  CUDA_CHECK(cudaGetDeviceProperties(&prop, dev));
+  CUDA_CHECK(cudaRuntimeGetVersion(&rt));
+  CUDA_CHECK(cudaDriverGetVersion(&drv));
+  CUDA_CHECK(cudaDeviceGetAttribute(&clock_khz, cudaDevAttrClockRate, dev));
+  CUDA_CHECK(cudaDeviceGetAttribute(&mem_clock_khz, cudaDevAttrMemoryClockRate, dev));
+  CUDA_CHECK(cudaDeviceGetAttribute(&bus_bits, cudaDevAttrGlobalMemoryBusWidth, dev));
+  CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
+  return {{"gpu", prop.name},
+          {"gpu_cc", std::to_string(prop.major) + "." + std::to_string(prop.minor)},
+          {"gpu_memory_GiB", std::to_string(static_cast<double>(prop.totalGlobalMem) / (1 << 30))},
+          {"gpu_sms", std::to_string(sms)},
+          {"gpu_clock_MHz", std::to_string(clock_khz / 1000)},
+          {"gpu_memory_clock_MHz", std::to_string(mem_clock_khz / 1000)},
+          {"gpu_memory_bus_bits", std::to_string(bus_bits)},
+          {"cuda_runtime", std::to_string(rt)},
+          {"cuda_driver", std::to_string(drv)}};
 }
 
 // Throws UsageError when `bytes` will not fit in the free memory of the current GPU.
@@ -66,6 +100,25 @@ class DeviceArray {
  private:
   T* p_ = nullptr;
   size_t n_;
+};
+
+// Page-locked host memory: copies from and to it are truly asynchronous (pageable memory is staged by the driver,
+// which blocks the host). An owner, so a member of this type is freed when a later member's allocation throws.
+template <class T>
+class PinnedArray {
+ public:
+  explicit PinnedArray(size_t n) {
+    if (n > 0) CUDA_CHECK(cudaMallocHost(&p_, n * sizeof(T)));
+  }
+  ~PinnedArray() {
+    if (p_) cudaFreeHost(p_);
+  }
+  PinnedArray(const PinnedArray&) = delete;
+  PinnedArray& operator=(const PinnedArray&) = delete;
+  T* get() const { return p_; }
+
+ private:
+  T* p_ = nullptr;
 };
 
 // A cuBLAS handle that lives as long as its owner: its calls go to `stream` (default: the legacy default stream),

@@ -7,12 +7,14 @@
 //                        thread reads its block as four streams, see read_block)
 // Each sweep runs --trials times; the record keeps the best (STREAM's figure) and the median trial. The arrays are
 // first touched by the same static schedule as the sweeps, and the results are checked after the timing.
+// --device gpu runs the same two sweeps in the GPU's memory (common/stream_gpu.cu), timed by CUDA events.
 #include <omp.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +24,7 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
+#include "common/stream_gpu.hpp"
 #include "common/timer.hpp"
 
 namespace {
@@ -31,6 +34,7 @@ struct Args {
   int trials = 20;
   int threads = 0;
   std::string record_path;
+  std::string device = "cpu";
   bool json = false, quiet = false;
 };
 
@@ -64,7 +68,8 @@ Stats stats(std::vector<double> t) {
   return {t.front(), t.size() % 2 ? t[m] : 0.5 * (t[m - 1] + t[m])};
 }
 
-int run(const Args& a) {
+// The sweeps on the CPU's OpenMP threads: the seconds of each trial, and whether the values were right.
+bool cpu_sweeps(const Args& a, std::vector<double>& triad_t, std::vector<double>& read_t) {
   const long n = a.size;
   hpcgi::require_host_memory("bin/stream --size " + std::to_string(n), 3.0 * sizeof(double) * n);
   std::unique_ptr<double[]> av(new double[n]), bv(new double[n]), cv(new double[n]);
@@ -76,7 +81,6 @@ int run(const Args& a) {
     z[i] = 2.0;
   }
   const double s = 3.0;
-  std::vector<double> triad_t, read_t;
   double sum = 0;
   for (int k = 0; k < a.trials; ++k) {
     hpcgi::Timer t;
@@ -91,16 +95,36 @@ int run(const Args& a) {
     sum = acc;
   }
   // Every element of a is 1 + 3·2 = 7, so the read sweep must have summed 7n (exact in double for n < 2^49).
-  const bool valid = sum == 7.0 * static_cast<double>(n) &&
-                     std::all_of(x, x + n, [](double v) { return v == 7.0; });
-  if (!valid) throw hpcgi::NumericalError("the sweeps computed wrong values (sum " + std::to_string(sum) + ")");
+  return sum == 7.0 * static_cast<double>(n) && std::all_of(x, x + n, [](double v) { return v == 7.0; });
+}
+
+int run(const Args& a) {
+  const long n = a.size;
+  const bool gpu = a.device == "gpu";
+  std::vector<double> triad_t, read_t;
+  bool valid = false;
+  std::map<std::string, std::string> info;
+  if (gpu) {
+#ifdef HAVE_CUDA
+    hpcgi::GpuSweeps g = hpcgi::gpu_sweeps(n, a.trials);
+    triad_t = g.triad_s;
+    read_t = g.read_s;
+    valid = g.all_seven && g.sum == 7.0 * static_cast<double>(n);
+    info = g.info;
+#else
+    throw hpcgi::UsageError("--device gpu needs a build with CUDA, and this bin/stream was built without (no nvcc)");
+#endif
+  } else {
+    valid = cpu_sweeps(a, triad_t, read_t);
+  }
+  if (!valid) throw hpcgi::NumericalError("the sweeps computed wrong values");
 
   const Stats tr = stats(triad_t), rd = stats(read_t);
   const double triad_bytes = 24.0 * n, read_bytes = 8.0 * n;
-  const int threads = omp_get_max_threads();
+  const int threads = gpu ? 1 : omp_get_max_threads();
   nlohmann::json rec = hpcgi::record::make("stream");
   rec["params"] = {{"size", n}, {"array_bytes", 8.0 * n}, {"trials", a.trials}, {"threads", threads},
-                   {"precision", "double"}};
+                   {"precision", "double"}, {"device", a.device}};
   rec["result"] = {{"valid", valid}};
   rec["times_s"] = {{"triad_best", tr.best}, {"triad_median", tr.median}, {"read_best", rd.best},
                     {"read_median", rd.median}};
@@ -110,11 +134,16 @@ int run(const Args& a) {
                  {"triad_median_GBps", triad_bytes / tr.median / 1e9},
                  {"read_GBps", read_bytes / rd.best / 1e9},
                  {"read_median_GBps", read_bytes / rd.median / 1e9},
-                 {"timer", "host wall clock"}};
-  rec["backend_info"] = {{"threads", std::to_string(threads)}};
+                 {"timer", gpu ? "CUDA events" : "host wall clock"}};
+  info["threads"] = std::to_string(threads);
+  rec["backend_info"] = info;
   if (!a.quiet) {
-    std::printf("stream: %ld doubles per array (%.0f MiB), %d threads, best and median of %d trials\n", n,
-                8.0 * n / (1 << 20), threads, a.trials);
+    if (gpu)
+      std::printf("stream: %ld doubles per array (%.0f MiB) on the GPU %s, best and median of %d trials\n", n,
+                  8.0 * n / (1 << 20), info["gpu"].c_str(), a.trials);
+    else
+      std::printf("stream: %ld doubles per array (%.0f MiB), %d threads, best and median of %d trials\n", n,
+                  8.0 * n / (1 << 20), threads, a.trials);
     std::printf("  triad a = b + s*c: %.2f GB/s (median %.2f GB/s)\n", triad_bytes / tr.best / 1e9,
                 triad_bytes / tr.median / 1e9);
     std::printf("  read  sum(a):      %.2f GB/s (median %.2f GB/s)\n", read_bytes / rd.best / 1e9,
@@ -139,10 +168,13 @@ int main(int argc, char** argv) {
   app.add_option("--trials", a.trials, "sweeps of each kind")->check(hpcgi::integer_in(1, 100000))->capture_default_str();
   app.add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(hpcgi::integer_in(1, 4096));
+  app.add_option("--device", a.device, "cpu: the CPU's OpenMP threads; gpu: the GPU's memory (CUDA events)")
+      ->check(CLI::IsMember({"cpu", "gpu"}))
+      ->capture_default_str();
   app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
   app.add_flag("--json", a.json, "print the record on stdout");
   app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
-  app.footer("\nExample:\n  OMP_PROC_BIND=close OMP_PLACES=cores bin/stream --threads 2\n");
+  app.footer("\nExamples:\n  OMP_PROC_BIND=close OMP_PLACES=cores bin/stream --threads 2\n  bin/stream --device gpu\n");
   int code = 0;
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
   return hpcgi::run_main("stream", [&] {

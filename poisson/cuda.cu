@@ -13,17 +13,23 @@
 namespace poisson {
 namespace {
 
+// Adds the block's sum of v to *out: warp shuffles, one slot of warp_sums per warp, warp 0 sums the slots. The
+// block may be any whole number of warps up to kBlock threads (sweep_kernel runs kSweepThreads = 128, the others
+// kBlock = 256): warp 0 reads blockDim.x / 32 slots, never a slot no warp of this block wrote. The closing barrier
+// lets a kernel call it twice (sweep_kernel: r·r, then r·Ar): without it the other warps could write the second
+// sum's partials into slots 1.. while warp 0 still reads the first's.
 __device__ inline void block_sum_into(double v, double* out) {
   for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
   __shared__ double warp_sums[kBlock / 32];
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5, warps = blockDim.x >> 5;
   if (lane == 0) warp_sums[warp] = v;
   __syncthreads();
   if (warp == 0) {
-    v = lane < kBlock / 32 ? warp_sums[lane] : 0.0;
+    v = lane < warps ? warp_sums[lane] : 0.0;
     for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
     if (lane == 0) atomicAdd(out, v);
   }
+  __syncthreads();
 }
 
 // Grid-stride loops over the n×n interior points; idx is the padded index.
@@ -73,6 +79,7 @@ __global__ void __launch_bounds__(kBlock) calc_p_kernel(long n, long s, T beta, 
 constexpr int kSweepThreads = 128;
 constexpr int kSweepCols = kSweepThreads - 4;
 constexpr int kSweepRows = 32;
+static_assert(kSweepThreads % 32 == 0 && kSweepThreads <= kBlock, "block_sum_into needs whole warps, <= kBlock");
 
 template <class T>
 __global__ void __launch_bounds__(kSweepThreads)
@@ -135,13 +142,13 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
   using B = GpuBase<T, OneSweepKernels<T>>;
 
  public:
-  explicit Cuda(const Config& cfg) : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), sum_(2) {
+  explicit Cuda(const Config& cfg)
+      : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), sum_(2), host_sum_(2) {
     int dev = 0, sms = 0;
     CUDA_CHECK(cudaGetDevice(&dev));
     CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
     const long pts = B::n_ * B::n_;
     blocks_ = static_cast<unsigned>(std::min<long>((pts + kBlock - 1) / kBlock, 8L * sms));
-    CUDA_CHECK(cudaMallocHost(&host_sum_, 2 * sizeof(double)));
     if (onesweep_) {
       // The second buffer of p (w, which onesweep does not use, is the second buffer of r).
       hpcgi::require_device_memory("backend cuda --variant onesweep at N = " + std::to_string(B::n_),
@@ -150,7 +157,6 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
       CUDA_CHECK(cudaMemset(p_spare_->get(), 0, B::size_ * sizeof(T)));
     }
   }
-  ~Cuda() override { cudaFreeHost(host_sum_); }
 
   double init() override {
     const double rr = B::init_vectors();
@@ -210,13 +216,13 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
  private:
   void zero() { CUDA_CHECK(cudaMemsetAsync(sum_.get(), 0, 2 * sizeof(double))); }
   const double* fetch(int count) {
-    CUDA_CHECK(cudaMemcpyAsync(host_sum_, sum_.get(), count * sizeof(double), cudaMemcpyDeviceToHost));
+    CUDA_CHECK(cudaMemcpyAsync(host_sum_.get(), sum_.get(), count * sizeof(double), cudaMemcpyDeviceToHost));
     CUDA_CHECK(cudaStreamSynchronize(0));
-    return host_sum_;
+    return host_sum_.get();
   }
   bool onesweep_;
   hpcgi::DeviceArray<double> sum_;
-  double* host_sum_ = nullptr;
+  hpcgi::PinnedArray<double> host_sum_;  // an owner: freed when p_spare_'s allocation below it throws
   unsigned blocks_ = 1;
   std::unique_ptr<hpcgi::DeviceArray<T>> p_spare_;
   // onesweep: the current and next buffers of r and p, swapped after every sweep.

@@ -93,18 +93,9 @@ class GpuBase : public Base {
   }
 
   std::map<std::string, std::string> info() const override {
-    int dev = 0, rt = 0, drv = 0;
-    cudaDeviceProp prop{};
-    CUDA_CHECK(cudaGetDevice(&dev));
-    CUDA_CHECK(cudaGetDeviceProperties(&prop, dev));
-    CUDA_CHECK(cudaRuntimeGetVersion(&rt));
-    CUDA_CHECK(cudaDriverGetVersion(&drv));
-    return {{"threads", "1"},
-            {"gpu", prop.name},
-            {"gpu_cc", std::to_string(prop.major) + "." + std::to_string(prop.minor)},
-            {"gpu_memory_GiB", std::to_string(prop.totalGlobalMem / double(1 << 30))},
-            {"cuda_runtime", std::to_string(rt)},
-            {"cuda_driver", std::to_string(drv)}};
+    auto i = hpcgi::gpu_info();
+    i["threads"] = "1";
+    return i;
   }
 
  private:

@@ -34,24 +34,7 @@ class Stream {
   cudaStream_t s_{};
 };
 
-// Page-locked host memory: copies from and to it are truly asynchronous (pageable memory is staged by the driver,
-// which blocks the host).
-template <class T>
-class PinnedArray {
- public:
-  explicit PinnedArray(size_t n) {
-    if (n > 0) CUDA_CHECK(cudaMallocHost(&p_, n * sizeof(T)));
-  }
-  ~PinnedArray() {
-    if (p_) cudaFreeHost(p_);
-  }
-  PinnedArray(const PinnedArray&) = delete;
-  PinnedArray& operator=(const PinnedArray&) = delete;
-  T* get() const { return p_; }
-
- private:
-  T* p_ = nullptr;
-};
+using hpcgi::PinnedArray;  // common/cuda_check.cuh
 
 struct DeviceTimes {
   double upload_s = 0, transfer_s = 0, compute_s = 0, host_compute_s = 0, transfer_bytes = 0;
@@ -126,19 +109,6 @@ class DeviceClock {
   double host_s_ = 0, bytes_ = 0;
 };
 
-// The GPU a backend runs on, for the record's backend_info.
-inline std::map<std::string, std::string> gpu_info() {
-  int dev = 0, rt = 0, drv = 0;
-  cudaDeviceProp prop{};
-  CUDA_CHECK(cudaGetDevice(&dev));
-  CUDA_CHECK(cudaGetDeviceProperties(&prop, dev));
-  CUDA_CHECK(cudaRuntimeGetVersion(&rt));
-  CUDA_CHECK(cudaDriverGetVersion(&drv));
-  return {{"gpu", prop.name},
-          {"gpu_cc", std::to_string(prop.major) + "." + std::to_string(prop.minor)},
-          {"gpu_memory_GiB", std::to_string(static_cast<double>(prop.totalGlobalMem) / (1 << 30))},
-          {"cuda_runtime", std::to_string(rt)},
-          {"cuda_driver", std::to_string(drv)}};
-}
+using hpcgi::gpu_info;  // the GPU a backend runs on, for the record's backend_info (common/cuda_check.cuh)
 
 }  // namespace radiosity::gpu

@@ -28,13 +28,6 @@ namespace {
 
 using gpu::DeviceClock;
 
-// ⌈d n⌉ rows. d comes in decimal (0.1, 0.7, ...), and its binary value may put d·n a hair above an integer that
-// the decimal hits exactly; the ceiling must not turn that into one row more.
-size_t gpu_rows(size_t n, double d) {
-  const double rows = std::ceil(d * double(n) - 1e-9);
-  return rows <= 0 ? 0 : std::min(n, static_cast<size_t>(rows));
-}
-
 template <class T>
 class Hybrid final : public gpu::DeviceKernels<T> {
  public:

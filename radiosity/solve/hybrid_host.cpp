@@ -1,6 +1,7 @@
 #include "radiosity/solve/hybrid_host.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "radiosity/solve/exec.hpp"
@@ -8,6 +9,14 @@
 #include "radiosity/solve/linalg.hpp"
 
 namespace radiosity {
+
+size_t gpu_rows(size_t n, double d) {
+  const double dn = d * double(n);
+  if (!(dn > 0)) return 0;  // d = 0 (or n = 0): no row on the GPU
+  const double rows = std::ceil(dn - 1e-9);
+  // 0 < d n <= 1e-9: the hair taken off above leaves 0, but ⌈d n⌉ is 1.
+  return std::min(n, rows < 1 ? size_t(1) : static_cast<size_t>(rows));
+}
 
 template <class T>
 struct HostRows<T>::Impl {

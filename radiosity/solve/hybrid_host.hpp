@@ -17,6 +17,11 @@
 
 namespace radiosity {
 
+// The rows of n on the GPU at distribution d in [0, 1]: ⌈d n⌉, so any d > 0 puts at least one row there. d comes
+// in decimal (0.1, 0.7, ...), and its binary value may put d·n a hair (1e-9) above an integer that the decimal hits
+// exactly; the ceiling does not turn that into one row more. Here, not in hybrid.cu, so it is tested without a GPU.
+size_t gpu_rows(size_t n, double d);
+
 template <class T>
 class HostRows {
  public:

@@ -161,3 +161,16 @@ TEST(CudaHybridHost, WithNoRowsItComputesNothing) {
   EXPECT_EQ(rows_of(h, 1, n), std::vector<Rgb>(n, Rgb{0, 0, 0}));
   EXPECT_EQ(h.dot(0, 0), (Rgb{0, 0, 0}));
 }
+
+// The split of backend hybrid: ⌈d n⌉ rows on the GPU, checked against the exact integer ceiling ⌈k n / 10⌉ for the
+// decimal distributions of Table 4.5 (whose binary values put some d·n a hair above an integer), and at least one
+// row for any d > 0, however small d·n is (it gave 0 rows for 0 < d·n <= 1e-9).
+TEST(CudaHybridHost, GpuRowsAreTheCeilingOfDTimesN) {
+  for (size_t n = 0; n <= 300; ++n)
+    for (size_t k = 0; k <= 10; ++k) EXPECT_EQ(gpu_rows(n, double(k) / 10), (k * n + 9) / 10) << "n=" << n << " k=" << k;
+  EXPECT_EQ(gpu_rows(17128, 0.1), 1713u);
+  EXPECT_EQ(gpu_rows(100, 1e-12), 1u);  // d·n = 1e-10
+  EXPECT_EQ(gpu_rows(1, 5e-10), 1u);
+  EXPECT_EQ(gpu_rows(100, 0.0), 0u);
+  EXPECT_EQ(gpu_rows(100, 1.0), 100u);
+}

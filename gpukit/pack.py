@@ -1,0 +1,157 @@
+#!/usr/bin/env python3
+"""Packs the GPU kit (make gpu-kit): the binaries built for the kit, the shared libraries they need that a bare GPU
+node lacks, the scenes, the paper preset's case lists, the driver and `run`, the GPU tests and the analysis package,
+into one relocatable folder of at most 60 MiB.
+
+    gpukit/pack.py --build build/gpu-kit-obj --kit build/gpu-kit --cuda-home /usr/local/cuda --archs 90
+
+Exit status 0 when the kit is whole; 2 with one line when an input is missing, a library does not resolve, or the
+kit is over its size limit (the kit is made beside as KIT.part and renamed when whole: no half kit is left)."""
+import argparse
+import datetime
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+from gpukit import libs  # noqa: E402
+
+LIMIT = 60 << 20
+MARKER = "KIT-MANIFEST.json"
+PROGRAMS = ("poisson", "radiosity", "stream")
+TEST_BINARIES = ("solve_tests",)  # the GPU unit tests (Cuda*), with the rest of the solver suite
+OWN_SCENES = ("scene1.xml", "scene2.xml")
+RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
+# The GPU integration tests and what they import, at the same paths as in the repository.
+TESTS = ("tests/conftest.py", "tests/integration/test_radiosity_gpu.py")
+DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/driver.py",
+          "gpukit/summary.py", "common/machine_label.py")
+
+
+class PackError(Exception):
+    pass
+
+
+def need(path):
+    if not Path(path).exists():
+        raise PackError(f"{path} not found")
+    return Path(path)
+
+
+def copy(src, dst):
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(need(src), dst)
+
+
+def pack(a):
+    final = Path(a.kit)
+    if final.exists() and not (final / MARKER).exists():
+        raise PackError(f"{final} exists and is no kit (no {MARKER}): not removing it")
+    kit = final.with_name(final.name + ".part")  # made here, renamed when whole: never a half kit
+    if kit.exists():
+        shutil.rmtree(kit)
+    try:
+        fill(a, kit)
+    except BaseException:
+        shutil.rmtree(kit, ignore_errors=True)
+        raise
+    if final.exists():
+        shutil.rmtree(final)
+    kit.rename(final)
+    total = json.loads((final / MARKER).read_text())["bytes"]
+    print(f"gpu-kit: {final} ({total / 2**20:.1f} MiB of {LIMIT >> 20}); on the GPU node: {final.name}/run --dry-run, "
+          f"then {final.name}/run")
+
+
+def fill(a, kit):
+    build = Path(a.build)
+    for p in PROGRAMS:
+        copy(build / "bin" / p, kit / "bin" / p)
+    for t in TEST_BINARIES:
+        copy(build / "tests" / t, kit / "bin" / t)
+
+    # lib/: the libraries ldd resolves outside the allowed ones, found through the build machine's CUDA for cuBLAS.
+    env = dict(os.environ, LD_LIBRARY_PATH=os.path.join(a.cuda_home, "lib64"))
+    (kit / "lib").mkdir()
+    carried = {}
+    for b in sorted((kit / "bin").iterdir()):
+        for name, where in libs.ldd(b, env):
+            if where is None:
+                raise PackError(f"{b.name} needs {name}, which ldd does not find here")
+            if libs.stem(name) == "libcudart":
+                raise PackError(f"{b.name} links CUDA's runtime dynamically ({name}); the kit links it statically")
+            if not libs.allowed_outside(name) and name not in carried:
+                shutil.copy2(os.path.realpath(where), kit / "lib" / name)
+                carried[name] = where
+    for b in sorted((kit / "bin").iterdir()):
+        bad = libs.problems(b, kit, env)
+        if bad:
+            raise PackError(f"{b.name}: " + "; ".join(bad))
+
+    for s in OWN_SCENES:
+        copy(ROOT / "radiosity" / "scenes" / s, kit / "radiosity" / "scenes" / s)
+    rrv = Path(a.rrv_scenes)
+    for f in RRV_FILES:  # RRV's scenes are GPL-3.0-or-later: their COPYING travels beside them
+        copy(rrv / f, kit / "scenes" / "rrv" / f)
+    for f in sorted((ROOT / "slurm" / "cases" / "paper").glob("*.txt")):
+        copy(f, kit / "cases" / "paper" / f.name)
+    for f in sorted((ROOT / "results" / "paper").glob("*.csv")):
+        copy(f, kit / "paper" / f.name)
+    for f in DRIVER + TESTS:
+        copy(ROOT / f, kit / f)
+    for f in sorted((ROOT / "analysis").glob("*.py")):
+        copy(f, kit / "analysis" / f.name)
+    # pytest in the kit: no cache folder inside the kit, temporary files under the output folder (run passes
+    # --basetemp), the reasons of skips printed.
+    (kit / "pytest.ini").write_text("[pytest]\ntestpaths = tests\npythonpath = .\naddopts = -rs -p no:cacheprovider\n")
+    copy(ROOT / "gpukit" / "run", kit / "run")
+    os.chmod(kit / "run", 0o755)
+
+    git = lambda *args: subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    nvcc = subprocess.run([os.path.join(a.cuda_home, "bin", "nvcc"), "--version"], capture_output=True, text=True)
+    files = {}
+    for f in sorted(p for p in kit.rglob("*") if p.is_file()):
+        files[str(f.relative_to(kit))] = {"bytes": f.stat().st_size,
+                                           "sha256": hashlib.sha256(f.read_bytes()).hexdigest()}
+    total = sum(v["bytes"] for v in files.values())
+    manifest = {
+        "kit": "hpcgi gpu-kit/1",
+        "git_commit": git("rev-parse", "HEAD"),
+        "git_dirty": git("status", "--porcelain", "--untracked-files=no") != "",
+        "built_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "cuda_archs": a.archs.split(),
+        "nvcc": nvcc.stdout.strip().splitlines()[-1] if nvcc.returncode == 0 else "unknown",
+        "libraries_carried": {k: v for k, v in sorted(carried.items())},
+        "libraries_from_the_node": "glibc, libstdc++, libgcc_s, libgomp, cuBLAS 13 (libcublas.so.13, "
+                                   "libcublasLt.so.13), the driver's libcuda",
+        "bytes": total,
+        "files": files,
+    }
+    if total > LIMIT:
+        raise PackError(f"the kit would be {total / 2**20:.1f} MiB, over its limit of {LIMIT >> 20} MiB")
+    (kit / MARKER).write_text(json.dumps(manifest, indent=1) + "\n")
+    print(f"gpu-kit: {len(files)} files; libraries carried: {', '.join(carried) or 'none'}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", required=True, help="the kit's build folder (binaries in bin/, tests/)")
+    ap.add_argument("--kit", required=True, help="the kit folder to make (replaced if it is a kit)")
+    ap.add_argument("--cuda-home", required=True, help="the CUDA toolkit the binaries were built with")
+    ap.add_argument("--archs", required=True, help="the CUDA architectures built, e.g. '80 90'")
+    ap.add_argument("--rrv-scenes", required=True, help="RRV's scenes: room2.xml, room3.xml, teapot.obj, COPYING")
+    a = ap.parse_args()
+    try:
+        pack(a)
+    except (PackError, RuntimeError, OSError) as e:
+        print(f"gpu-kit: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()
