@@ -61,6 +61,7 @@ class CpuBlock {
   T* x() { return x_.get(); }
   T* p() { return p_.get(); }
   T* r() { return r_.get(); }
+  T* w() { return w_.get(); }
 
   double init() {
     double rr = 0;
