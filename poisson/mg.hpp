@@ -76,6 +76,11 @@ class MgLevels {
   virtual int levels() const = 0;
   virtual void zero(int l) = 0;                     // x_l = 0
   virtual void smooth(int l, int colour) = 0;       // Gauss-Seidel on the points of one colour of level l
+  // smooth(l, first) then smooth(l, 1 - first); a backend may do both in one pass (mg_cpu.hpp).
+  virtual void smooth_pair(int l, int first) {
+    smooth(l, first);
+    smooth(l, 1 - first);
+  }
   virtual void restrict_residual(int l) = 0;        // b_{l+1} = Pᵀ (b_l - A x_l)
   virtual void prolong_add(int l) = 0;              // x_l += P x_{l+1}
 };
@@ -87,13 +92,11 @@ inline void vcycle(MgLevels& k, int l = 0) {
     k.smooth(l, 0);
     return;
   }
-  k.smooth(l, 0);
-  k.smooth(l, 1);
+  k.smooth_pair(l, 0);  // red, then black
   k.restrict_residual(l);
   vcycle(k, l + 1);
   k.prolong_add(l);
-  k.smooth(l, 1);
-  k.smooth(l, 0);
+  k.smooth_pair(l, 1);  // black, then red
 }
 
 // A value in [-1, 1) for point (i, j) of an n×n grid, the same on every rank and backend (splitmix64 of the index).

@@ -94,18 +94,38 @@ class CpuMg final : public MgLevels {
   void smooth(int l, int colour) override {
     CpuLevel<T>& lv = lv_[l];
     if (!lv.rows.whole) comm_->halo(lv, lv.x);
-    const long n = lv.rows.n;
 #pragma omp parallel for schedule(static) if (lv.threaded())
-    for (long jl = 0; jl < lv.rows.ny; ++jl) {
-      T* __restrict x = lv.row(lv.x, jl);
-      const T* __restrict up = lv.row(lv.x, jl - 1);
-      const T* __restrict dn = lv.row(lv.x, jl + 1);
-      const T* __restrict b = lv.row(lv.b, jl);
-      const T d = 4 + (lv.rows.y0 + jl == n - 1 ? lv.e : T(0)), inv = 1 / d;
-      // Point i (padded c = i + 1) has colour (i + j) mod 2; the last column's diagonal has e more.
-      long c = 1 + ((colour + lv.rows.y0 + jl) & 1);
-      for (; c < n; c += 2) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) * inv;
-      if (c == n) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) / (d + lv.e);
+    for (long jl = 0; jl < lv.rows.ny; ++jl) colour_row(lv, jl, colour);
+  }
+
+  // Both colours in one pass over memory: the second colour of row j - 1 right after the first colour of row j
+  // (it needs the new first colour of rows j - 2 .. j), which still reads the old second colour of rows j - 1 and
+  // j + 1. Each thread's block of rows (and each rank's) needs the new first colour of the row beyond each of its
+  // ends before it can finish its own edge rows: so first every thread makes the first colour of its first and
+  // last rows, then (after the halo, on a distributed level) every thread sweeps. The same updates as smooth(l,
+  // first) then smooth(l, 1 - first), in an order that gives the same values: the tests compare with serial.
+  void smooth_pair(int l, int first) override {
+    CpuLevel<T>& lv = lv_[l];
+    const int second = 1 - first;
+    const long ny = lv.rows.ny;
+    const int nt = lv.threaded() ? omp_get_max_threads() : 1;
+    if (!lv.rows.whole) comm_->halo(lv, lv.x);
+#pragma omp parallel num_threads(nt)
+    {
+      const auto [y0, y1] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+      if (y1 > y0) colour_row(lv, y0, first);
+      if (y1 - 1 > y0) colour_row(lv, y1 - 1, first);
+    }
+    if (!lv.rows.whole) comm_->halo(lv, lv.x);
+#pragma omp parallel num_threads(nt)
+    {
+      const auto [y0, y1] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+      for (long j = y0 + 1; j <= y1 - 2; ++j) {
+        colour_row(lv, j, first);
+        colour_row(lv, j - 1, second);
+      }
+      if (y1 - 2 >= y0) colour_row(lv, y1 - 2, second);
+      if (y1 - 1 >= y0) colour_row(lv, y1 - 1, second);
     }
   }
 
@@ -170,6 +190,20 @@ class CpuMg final : public MgLevels {
   }
 
  private:
+  // Gauss-Seidel on the points of one colour of local row jl: point i (padded c = i + 1) has colour (i + j) mod 2;
+  // the diagonal is 4, plus e on the last row and on the last column.
+  static void colour_row(CpuLevel<T>& lv, long jl, int colour) {
+    const long n = lv.rows.n;
+    T* __restrict x = lv.row(lv.x, jl);
+    const T* __restrict up = lv.row(lv.x, jl - 1);
+    const T* __restrict dn = lv.row(lv.x, jl + 1);
+    const T* __restrict b = lv.row(lv.b, jl);
+    const T d = 4 + (lv.rows.y0 + jl == n - 1 ? lv.e : T(0)), inv = 1 / d;
+    long c = 1 + ((colour + lv.rows.y0 + jl) & 1);
+    for (; c < n; c += 2) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) * inv;
+    if (c == n) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) / (d + lv.e);
+  }
+
   std::vector<CpuLevel<T>> lv_;
   MgComm<T>* comm_;
 };
