@@ -29,6 +29,7 @@ if "PETSC_DIR" not in os.environ:
     os.execv(sys.executable, [sys.executable, *sys.argv])
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis import record  # noqa: E402  (standard library only, so /usr/bin/python3 can import it)
+from analysis.peers import positive  # noqa: E402  (NumPy is imported inside its functions only)
 
 PCS = {"none": "none", "hypre": "hypre", "gamg": "gamg"}
 NAMES = {"none": "PETSc CG", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
@@ -38,18 +39,6 @@ class Parser(argparse.ArgumentParser):
     def error(self, message):
         print(f"petsc_poisson: {message} (see --help)", file=sys.stderr)
         sys.exit(2)
-
-
-def positive(kind):
-    def check(text):
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-        if not v > 0 or v == float("inf"):
-            raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
-        return v
-    return check
 
 
 def parse(argv):
