@@ -86,7 +86,7 @@ help:
 	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make plots"
 	@echo "make resume     run (or submit) only the cases not yet recorded"
 	@echo "make plots      tables (results/tables) and plots (results/plots) from the records"
-	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy) here: results/tables/bench_PRESET.md"
+	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/tables/bench_PRESET.md"
 	@echo "make report     the reproduced report, report/REPORT-<preset>.md, from the tables and plots"
 	@echo "make audit      re-run a sample of recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=..."
