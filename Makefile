@@ -90,7 +90,7 @@ help:
 	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
-	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy) here: results/<machine>/tables/bench_PRESET.md"
+	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/<machine>/tables/bench_PRESET.md"
 	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
 	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=... MACHINE=<label> (default: this machine's)"

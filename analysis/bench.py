@@ -2,7 +2,9 @@
 the newest bandwidth record): medians over repeats of our time per iteration, the bandwidth it implies as a
 fraction of the triad bandwidth measured next to it (slurm/bench measures the limit before every case: on a shared
 VM it drifts with the neighbours), and the peers' time over ours; then the targets of issue 7, met or not. Prints
-the table and writes $RESULTS/<machine>/tables/bench_PRESET.md."""
+the table and writes $RESULTS/<machine>/tables/bench_PRESET.md. The bench-mg records (issue 19) make a second table: MG-PCG
+to 1e-6 against PETSc's CG with hypre's BoomerAMG and with GAMG (bench/petsc_poisson.py), time to solution and
+error; plain CG per iteration against PETSc's CG, whose iterations must equal ours."""
 import sys
 
 import pandas as pd
@@ -12,6 +14,10 @@ from analysis.records import load, tables_dir
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
 # of 4·N² bytes at the triad bandwidth, >= 2.5x the best NumPy way, and >= 1.7x faster with F in float16.
 CG_FRACTION, CG_VS_SCIPY, JACOBI_SLACK, JACOBI_VS_NUMPY, HALF_VS_FLOAT = 0.80, 8.0, 1.15, 2.5, 1.7
+# Issue 19's: MG-PCG's time to 1e-6 at N = 2048 and 4096 at most 0.5x PETSc CG + BoomerAMG's and below PETSc CG +
+# GAMG's; plain CG per iteration >= 3x PETSc's CG; N = 8192 in at most 10 s.
+MG_VS_HYPRE, CG_VS_PETSC, MG_8192_S = 0.5, 3.0, 10.0
+PETSC = {"none": "PETSc CG (AIJ 5-point)", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
 
 
 def _on(df, host):
@@ -149,11 +155,79 @@ def rows(preset):
     return out, targets, host, int(stream["params.threads"].iloc[-1]), stream["provenance.cpu_model"].iloc[-1]
 
 
+def mg_rows(preset, host):
+    """The bench-mg table (time to solution, iterations, error, time / ours) and its target lines."""
+    df = _on(load("bench-mg", preset), host)
+    if not len(df):
+        return [], []
+    precond = df["params.precond"].fillna("none") if "params.precond" in df else pd.Series("none", df.index)
+    mine, peer = df[df["app"] == "poisson"], df[df["app"] == "peer"]
+    out, targets = [], []
+
+    def entry(name, recs, ours_t=None):
+        t, it = _median(recs, "times_s.solve"), int(recs["result.iterations"].median())
+        setup = recs["times_s.setup"] + (recs["times_s.pc_setup"].fillna(0) if "times_s.pc_setup" in recs else 0)
+        return {"solver": name, "iterations": it, "time to solution (s)": t,
+                "ms per iteration": 1e3 * _median(recs, "times_s.per_iteration"),
+                "setup (s)": float(setup.fillna(0).median()), "error ‖u − u_h‖∞": _median(recs, "result.error_inf"),
+                "time / ours": t / ours_t if ours_t else 1.0, "repeats": len(recs)}
+
+    for n in sorted(df["params.n"].unique()):
+        cap = lambda r: r["params.max_iter"] < max(1000, 4 * n)  # noqa: E731  capped runs: per iteration only
+        o = mine[(mine["params.n"] == n) & (precond[mine.index] == "mg")]
+        if len(o):
+            first = entry(f"ours: openmp MG-PCG, {int(o['params.threads'].iloc[0])} threads", o)
+            rows_n = [first]
+            for pc in ("hypre", "gamg"):
+                p = peer[(peer["params.n"] == n) & (peer["params.precond"] == pc)]
+                if len(p):
+                    rows_n.append(entry(f"{PETSC[pc]}, {int(p['params.ranks'].iloc[0])} ranks", p,
+                                        first["time to solution (s)"]))
+            for k, r in enumerate(rows_n):
+                out.append({"problem": f"Poisson to 1e-6, N={n}" if k == 0 else "", **r})
+            t = first["time to solution (s)"]
+            for r in rows_n[1:]:
+                if n in (2048, 4096) and "hypre" in r["solver"]:
+                    x = t / r["time to solution (s)"]
+                    targets.append(f"MG-PCG N={n}: {t:.3g} s, {x:.2f}x PETSc + BoomerAMG's {r['time to solution (s)']:.3g} "
+                                   f"s (target <= {MG_VS_HYPRE}x): {'met' if x <= MG_VS_HYPRE else 'NOT met'}")
+                if n in (2048, 4096) and "GAMG" in r["solver"]:
+                    targets.append(f"MG-PCG N={n}: {t:.3g} s against PETSc + GAMG's {r['time to solution (s)']:.3g} "
+                                   f"s (target: below): {'met' if t < r['time to solution (s)'] else 'NOT met'}")
+            if n == 8192:
+                targets.append(f"MG-PCG N=8192: {t:.3g} s to 1e-6 in {first['iterations']} iterations (target <= "
+                               f"{MG_8192_S:g} s): {'met' if t <= MG_8192_S else 'NOT met'}")
+            targets.append(f"MG-PCG N={n}: {first['iterations']} iterations (target <= 12): "
+                           f"{'met' if first['iterations'] <= 12 else 'NOT met'}")
+        # Plain CG: ours against PETSc's, full solves (iterations must agree) or capped (time per iteration).
+        o = mine[(mine["params.n"] == n) & (precond[mine.index] == "none")]
+        p = peer[(peer["params.n"] == n) & (peer["params.precond"] == "none")]
+        if len(o) and len(p):
+            mine_e = entry(f"ours: openmp CG {o['params.variant'].iloc[0]}, {int(o['params.threads'].iloc[0])} threads", o)
+            peer_e = entry(f"{PETSC['none']}, {int(p['params.ranks'].iloc[0])} ranks", p, mine_e["time to solution (s)"])
+            peer_e["time / ours"] = peer_e["ms per iteration"] / mine_e["ms per iteration"]
+            capped = bool(cap(o.iloc[0]))
+            title = f"Plain CG, N={n}" + (f", {mine_e['iterations']} iterations (capped): per iteration" if capped
+                                          else " to 1e-6")
+            out.append({"problem": title, **mine_e})
+            out.append({"problem": "", **peer_e})
+            x = peer_e["time / ours"]
+            if capped:
+                targets.append(f"Plain CG N={n}: {x:.1f}x faster per iteration than PETSc's CG (target >= "
+                               f"{CG_VS_PETSC:g}x): {'met' if x >= CG_VS_PETSC else 'NOT met'}")
+            else:
+                same = mine_e["iterations"] == peer_e["iterations"]
+                targets.append(f"Plain CG N={n}: ours {mine_e['iterations']} iterations, PETSc's {peer_e['iterations']}"
+                               f" (the same problem and norm: must agree): {'agree' if same else 'DIFFER'}")
+    return out, targets
+
+
 def write(preset):
     made = rows(preset)
     if made is None:
         return None
     out, targets, host, threads, cpu = made
+    mg_out, mg_targets = mg_rows(preset, host)
     df = pd.DataFrame(out)
     df = df.astype(object).where(df.notna(), None)  # empty cells, not "nan"
     table = df.to_markdown(index=False, floatfmt=".3g", missingval="")
@@ -163,6 +237,16 @@ def write(preset):
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "
             f"same problem (peer/ours, > 1: ours is faster).")
     text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
+    if mg_out:
+        mg = pd.DataFrame(mg_out)
+        mg = mg.astype(object).where(mg.notna(), None)
+        text += (f"\n#### Multigrid-preconditioned CG against PETSc and hypre ({preset})\n\nTime to solution: the "
+                 f"solve alone (ours: the CG iterations with their V-cycles; PETSc: ksp.solve after ksp.setUp, whose "
+                 f"AMG setup is in setup with the assembly); ours on {threads} OpenMP threads, PETSc on as many MPI "
+                 f"ranks; medians over the repeats, which slurm/bench runs in rounds so ours and the peers "
+                 f"alternate. time / ours: peer over ours (> 1: ours is faster); for plain CG per iteration.\n\n"
+                 + mg.to_markdown(index=False, floatfmt=".4g", missingval="") + "\n\n"
+                 + "".join(f"- {t}\n" for t in mg_targets))
     tables_dir().mkdir(parents=True, exist_ok=True)
     path = tables_dir() / f"bench_{preset}.md"
     path.write_text(text)

@@ -12,6 +12,7 @@ DEBIAN_PACKAGES=(
   openmpi-bin libopenmpi-dev
   slurmctld slurmd slurm-client munge
   clang libclang-rt-dev  # make fuzz: libFuzzer and clang's sanitizers
+  python3-petsc4py       # make bench: PETSc (with hypre) as the peer of bin/poisson --precond mg
 )
 VENV=${VENV:-.venv}
 PYTHON=${PYTHON:-python3}

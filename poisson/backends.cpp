@@ -21,13 +21,13 @@ const std::vector<BackendEntry>& backends() {
   const char* no_cuda = "built without CUDA (no nvcc found at build time)";
 #endif
   static const std::vector<BackendEntry> list = {
-      {"serial", "frozen reference: plain loops, one thread", true, "", false},
-      {"openmp", "fused kernels, OpenMP threads over rows", true, "", true},
-      {"mpi", "row blocks across ranks (mpirun -np P), halo exchange, OpenMP inside each rank", mpi, no_mpi, true},
-      {"cublas1", "report's cuBLAS 1: own stencil and axpby kernels, cublas dot", cuda, no_cuda, false},
+      {"serial", "frozen reference: plain loops, one thread", true, "", false, true},
+      {"openmp", "fused kernels, OpenMP threads over rows", true, "", true, true},
+      {"mpi", "row blocks across ranks (mpirun -np P), halo exchange, OpenMP inside each rank", mpi, no_mpi, true, true},
+      {"cublas1", "report's cuBLAS 1: own stencil and axpby kernels, cublas dot", cuda, no_cuda, false, false},
       {"cublas2", "report's cuBLAS 2: own stencil kernel, cuBLAS dot/axpy/scal for every vector operation", cuda,
-       no_cuda, false},
-      {"cuda", "our best: fused kernels, one reduction per dot, no needless synchronisation", cuda, no_cuda, true},
+       no_cuda, false, false},
+      {"cuda", "our best: fused kernels, one reduction per dot, no needless synchronisation", cuda, no_cuda, true, true},
   };
   return list;
 }
@@ -40,8 +40,8 @@ const BackendEntry& entry(const std::string& name) {
 }
 }  // namespace
 
-std::string default_variant(const std::string& backend, const std::string& precision) {
-  return entry(backend).onesweep && precision == "double" ? "onesweep" : "classic";
+std::string default_variant(const std::string& backend, const std::string& precision, const std::string& precond) {
+  return entry(backend).onesweep && precision == "double" && precond == "none" ? "onesweep" : "classic";
 }
 
 template <class T>
@@ -51,6 +51,12 @@ std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg) {
   if (cfg.variant != "classic" && !(cfg.variant == "onesweep" && e->onesweep))
     throw hpcgi::UsageError("backend '" + cfg.backend + "' has no variant '" + cfg.variant + "'" +
                             (e->onesweep ? " (classic or onesweep)" : " (classic only)"));
+  if (cfg.precond != "none" && !(cfg.precond == "mg" && e->mg))
+    throw hpcgi::UsageError("backend '" + cfg.backend + "' has no preconditioner '" + cfg.precond + "'" +
+                            (e->mg ? " (none or mg)" : " (none only)"));
+  if (cfg.precond == "mg" && cfg.variant != "classic")
+    throw hpcgi::UsageError("--precond mg runs preconditioned CG, which has no variant '" + cfg.variant +
+                            "' (leave --variant out, or --variant classic)");
   if (cfg.backend == "serial") return make_serial<T>(cfg);
   if (cfg.backend == "openmp") return make_openmp<T>(cfg);
 #ifdef HAVE_MPI

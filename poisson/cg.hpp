@@ -27,6 +27,31 @@ struct CgResult {
 using CgProgress = std::function<void(long, double)>;
 
 namespace detail {
+// The checks inside the loops of run_cg and run_pcg: false, with the reason in res, when p·Ap is not finite and
+// positive, or r·r is not finite.
+inline bool pw_ok(CgResult& res, double pw, long it) {
+  if (std::isfinite(pw) && pw > 0.0) return true;
+  res.status = "breakdown";
+  res.breakdown = "p·Ap = " + std::to_string(pw) + " at iteration " + std::to_string(it) +
+                  " (must be finite and > 0 for a symmetric positive definite matrix)";
+  return false;
+}
+inline bool rr_ok(CgResult& res, double rr, long it) {
+  if (std::isfinite(rr)) return true;
+  res.status = "breakdown";
+  res.breakdown = "r·r is not finite at iteration " + std::to_string(it);
+  return false;
+}
+// After iteration it with the new r·r: the relative residual, the progress call, and whether it has converged.
+inline bool reached(CgResult& res, double rr, double rr0, long it, double tol, const CgProgress& progress) {
+  res.iterations = it;
+  res.rel_residual = std::sqrt(rr / rr0);
+  if (progress) progress(it, res.rel_residual);
+  if (res.rel_residual > tol) return false;
+  res.status = "converged";
+  return true;
+}
+
 // The checks after the solve, the same for both variants: true residual from x, error against u.
 template <class T>
 void finish(Kernels<T>& k, CgResult& res, double rr0, hpcgi::Timer& t) {
@@ -52,26 +77,11 @@ CgResult run_cg(Kernels<T>& k, double tol, long max_iter,
   if (rr0 == 0.0) res.status = "converged";  // b = 0: x = 0 is exact
   for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
     const double pw = k.calc_w();
-    if (!std::isfinite(pw) || pw <= 0.0) {
-      res.status = "breakdown";
-      res.breakdown = "p·Ap = " + std::to_string(pw) + " at iteration " + std::to_string(it) +
-                      " (must be finite and > 0 for a symmetric positive definite matrix)";
-      break;
-    }
+    if (!detail::pw_ok(res, pw, it)) break;
     const double alpha = rr / pw;
     const double rr_new = k.calc_ur(alpha);
     res.iterations = it;
-    if (!std::isfinite(rr_new)) {
-      res.status = "breakdown";
-      res.breakdown = "r·r is not finite at iteration " + std::to_string(it);
-      break;
-    }
-    res.rel_residual = std::sqrt(rr_new / rr0);
-    if (progress) progress(it, res.rel_residual);
-    if (res.rel_residual <= tol) {
-      res.status = "converged";
-      break;
-    }
+    if (!detail::rr_ok(res, rr_new, it) || detail::reached(res, rr_new, rr0, it, tol, progress)) break;
     k.calc_p(rr_new / rr);
     rr = rr_new;
   }
@@ -124,6 +134,41 @@ CgResult run_cg_onesweep(OneSweepKernels<T>& k, double tol, long max_iter, const
   return res;
 }
 
+// CG preconditioned by M⁻¹ (one multigrid V-cycle, mg.hpp), the classic shape with z = M⁻¹ r between the
+// updates; the stopping test reads the unpreconditioned ‖r‖/‖r₀‖ as plain CG (and PETSc's UNPRECONDITIONED norm).
+template <class T>
+CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, const CgProgress& progress = nullptr) {
+  CgResult res;
+  hpcgi::Timer t;
+  const double rr0 = k.init();
+  res.init_s = t.seconds();
+  t.reset();
+  res.status = rr0 == 0.0 ? "converged" : "max_iter";
+  double rz = 0;
+  if (rr0 > 0) {
+    rz = m.precondition();
+    m.calc_p_z(0.0);
+  }
+  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+    if (!std::isfinite(rz) || rz <= 0.0) {
+      res.status = "breakdown";
+      res.breakdown = "r·M⁻¹r = " + std::to_string(rz) + " at iteration " + std::to_string(it) +
+                      " (must be finite and > 0 for a symmetric positive definite preconditioner)";
+      break;
+    }
+    const double pw = k.calc_w();
+    if (!detail::pw_ok(res, pw, it)) break;
+    const double rr = k.calc_ur(rz / pw);
+    res.iterations = it;
+    if (!detail::rr_ok(res, rr, it) || detail::reached(res, rr, rr0, it, tol, progress)) break;
+    const double rz_new = m.precondition();
+    m.calc_p_z(rz_new / rz);
+    rz = rz_new;
+  }
+  detail::finish(k, res, rr0, t);
+  return res;
+}
+
 // Runs the variant the backend was made for (cfg.variant; make_kernels refused a variant it does not have).
 template <class T>
 CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long max_iter,
@@ -132,6 +177,16 @@ CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long
   auto* s = dynamic_cast<OneSweepKernels<T>*>(&k);
   if (variant != "onesweep" || !s) throw hpcgi::UsageError("this backend has no variant '" + variant + "'");
   return run_cg_onesweep(*s, tol, max_iter, progress);
+}
+
+// Runs what cfg asks for: with cfg.precond == "mg" the preconditioned CG, otherwise cfg.variant.
+template <class T>
+CgResult run_config(Kernels<T>& k, const Config& cfg, double tol, long max_iter,
+                    const CgProgress& progress = nullptr) {
+  if (cfg.precond == "none") return run_variant(k, cfg.variant, tol, max_iter, progress);
+  auto* m = dynamic_cast<Preconditioned*>(&k);
+  if (cfg.precond != "mg" || !m) throw hpcgi::UsageError("this backend has no preconditioner '" + cfg.precond + "'");
+  return run_pcg(k, *m, tol, max_iter, progress);
 }
 
 }  // namespace poisson

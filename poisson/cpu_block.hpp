@@ -33,7 +33,7 @@ class CpuBlock {
   // Rows [y0, y0 + ny) of the N×N grid, N = n: the one-sweep variant needs y0 to tell the ghost rows outside the
   // grid (always zero) from those that hold a neighbour's rows.
   CpuBlock(long n, long y0, long ny)
-      : g_{n}, n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
+      : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
         x_(new T[size_]), r_(new T[size_]), p_(new T[size_]), w_(new T[size_]), b_(new T[size_]) {
     // First touch of the interior rows in the loop schedule of the kernels; ghost rows and columns are zero.
     auto touch = [this](long jl) {
@@ -41,7 +41,7 @@ class CpuBlock {
         const long k = (jl + kGhost) * s_ + c;
         x_[k] = r_[k] = p_[k] = w_[k] = 0;
         const long i = c - 1, j = y0_ + jl;
-        b_[k] = (jl >= 0 && jl < ny_ && i >= 0 && i < n_) ? static_cast<T>(g_.b(i, j)) : T(0);
+        b_[k] = (jl >= 0 && jl < ny_ && i >= 0 && i < n_) ? static_cast<T>(tab_.b(i, j)) : T(0);
       }
     };
 #pragma omp parallel for schedule(static)
@@ -61,6 +61,7 @@ class CpuBlock {
   T* x() { return x_.get(); }
   T* p() { return p_.get(); }
   T* r() { return r_.get(); }
+  T* w() { return w_.get(); }
 
   double init() {
     double rr = 0;
@@ -187,7 +188,7 @@ class CpuBlock {
 #pragma omp parallel for schedule(static) reduction(max : e)
     for (long jl = 0; jl < ny_; ++jl) {
       const T* x = row(x_.get(), jl);
-      for (long c = 1; c <= n_; ++c) e = std::max(e, std::abs(static_cast<double>(x[c]) - g_.u(c - 1, y0_ + jl)));
+      for (long c = 1; c <= n_; ++c) e = std::max(e, std::abs(static_cast<double>(x[c]) - tab_.u(c - 1, y0_ + jl)));
     }
     return e;
   }
@@ -334,6 +335,7 @@ class CpuBlock {
   }
 
   Grid g_;
+  GridTable tab_;
   long n_, y0_, ny_, s_, size_;
   std::unique_ptr<T[]> x_, r_, p_, w_, b_;
   std::vector<Scratch> scratch_;

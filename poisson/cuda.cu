@@ -5,10 +5,12 @@
 //             [x += αp, r -= αw, r·r] 6, [p = r + βp] 3: 11.
 //   onesweep: one kernel per iteration (sweep_kernel): read r, p, x, write r, p, x: 6 vectors, plus the halo
 //             rows and columns each tile recomputes.
+//   --precond mg: classic with z = M⁻¹ r by the level kernels of mg_cuda.cuh, [r·z] and [p = z + βp].
 #include <memory>
 
 #include "poisson/backends.hpp"
 #include "poisson/gpu_base.cuh"
+#include "poisson/mg_cuda.cuh"
 
 namespace poisson {
 namespace {
@@ -68,6 +70,14 @@ template <class T>
 __global__ void __launch_bounds__(kBlock) calc_p_kernel(long n, long s, T beta, const T* __restrict__ r,
                                                         T* __restrict__ p) {
   FOR_INTERIOR(n, s, k, idx) { p[idx] = r[idx] + beta * p[idx]; }
+}
+
+template <class T>
+__global__ void __launch_bounds__(kBlock) dot_kernel(long n, long s, const T* __restrict__ a, const T* __restrict__ b,
+                                                     double* out) {
+  double acc = 0;
+  FOR_INTERIOR(n, s, k, idx) { acc += static_cast<double>(a[idx]) * b[idx]; }
+  block_sum_into(acc, out);
 }
 
 // The one-sweep iteration (kernels.hpp): p = r + βp, x += αp, r -= α Ap, with r·r and r·Ar of the new r. Blocks
@@ -138,7 +148,7 @@ __global__ void __launch_bounds__(kSweepThreads)
 }
 
 template <class T>
-class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
+class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned {
   using B = GpuBase<T, OneSweepKernels<T>>;
 
  public:
@@ -156,6 +166,38 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
       p_spare_ = std::make_unique<hpcgi::DeviceArray<T>>(B::size_);
       CUDA_CHECK(cudaMemset(p_spare_->get(), 0, B::size_ * sizeof(T)));
     }
+    if (cfg.precond == "mg") {
+      hpcgi::require_device_memory("backend cuda --precond mg at N = " + std::to_string(B::n_),
+                                   static_cast<double>(B::size_) * sizeof(T) + GpuMg<T>::coarse_bytes(B::n_));
+      z_ = std::make_unique<hpcgi::DeviceArray<T>>(B::size_);
+      CUDA_CHECK(cudaMemset(z_->get(), 0, B::size_ * sizeof(T)));
+      mg_ = std::make_unique<GpuMg<T>>(B::n_, z_->get(), B::r_.get(), B::w_.get());
+    }
+  }
+
+  double precondition() override {
+    vcycle(*mg_);
+    zero();
+    dot_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, B::r_.get(), z_->get(), sum_.get());
+    CUDA_CHECK_LAUNCH();
+    return fetch(1)[0];
+  }
+  void calc_p_z(double beta) override {
+    calc_p_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, static_cast<T>(beta), z_->get(), B::p_.get());
+    CUDA_CHECK_LAUNCH();
+  }
+  std::vector<long> mg_sizes() const override { return mg_level_sizes(B::n_); }
+  double apply_dot(const GridFn& x, const GridFn& y) override {
+    std::vector<T> h(B::size_, T(0));
+    for (long j = 0; j < B::n_; ++j)
+      for (long i = 0; i < B::n_; ++i) h[(j + 1) * B::s_ + i + 1] = static_cast<T>(x(i, j));
+    CUDA_CHECK(cudaMemcpy(B::r_.get(), h.data(), B::size_ * sizeof(T), cudaMemcpyHostToDevice));
+    vcycle(*mg_);
+    CUDA_CHECK(cudaMemcpy(h.data(), z_->get(), B::size_ * sizeof(T), cudaMemcpyDeviceToHost));
+    double sum = 0;
+    for (long j = 0; j < B::n_; ++j)
+      for (long i = 0; i < B::n_; ++i) sum += static_cast<double>(h[(j + 1) * B::s_ + i + 1]) * y(i, j);
+    return sum;
   }
 
   double init() override {
@@ -206,7 +248,9 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
     return {d[0], d[1]};
   }
 
-  int vectors_per_iteration() const override { return onesweep_ ? 6 : 11; }
+  int vectors_per_iteration() const override {
+    return mg_ ? 11 + 2 + mg_vectors_per_cycle(B::n_) : onesweep_ ? 6 : 11;
+  }
   std::map<std::string, std::string> info() const override {
     auto i = B::info();
     i["dot"] = "fused, double accumulation";
@@ -225,6 +269,8 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>> {
   hpcgi::PinnedArray<double> host_sum_;  // an owner: freed when p_spare_'s allocation below it throws
   unsigned blocks_ = 1;
   std::unique_ptr<hpcgi::DeviceArray<T>> p_spare_;
+  std::unique_ptr<hpcgi::DeviceArray<T>> z_;  // --precond mg: z = M⁻¹ r, and the hierarchy
+  std::unique_ptr<GpuMg<T>> mg_;
   // onesweep: the current and next buffers of r and p, swapped after every sweep.
   T *cur_r_ = nullptr, *cur_p_ = nullptr, *next_r_ = nullptr, *next_p_ = nullptr;
 };

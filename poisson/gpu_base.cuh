@@ -31,7 +31,7 @@ class GpuBase : public Base {
   GpuBase(const Config& cfg, const std::string& name)
       : n_((hpcgi::require_gpu("backend " + name), cfg.n)), s_(cfg.n + 2), size_(s_ * s_),
         x_((check_fits(name), size_)), r_(size_), p_(size_), w_(size_), b_(size_), name_(name) {
-    Grid g{n_};
+    const GridTable g{Grid{n_}};
     std::vector<T> b(size_, T(0));
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) b[(j + 1) * s_ + i + 1] = static_cast<T>(g.b(i, j));
@@ -76,7 +76,7 @@ class GpuBase : public Base {
 
   double error_inf() override {
     const std::vector<T> x = host_x();
-    Grid g{n_};
+    const GridTable g{Grid{n_}};
     double e = 0;
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i)

@@ -7,6 +7,7 @@
 //             and stores no w: read r, p, x, write r, p, x, 6 vectors. Backends that run it derive from
 //             OneSweepKernels.
 #pragma once
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -22,6 +23,7 @@ struct Config {
   std::string halo = "nonblocking";  // mpi: MPI_Isend/Irecv or MPI_Send/Recv
   int threads = 0;                   // 0: the OpenMP default (OMP_NUM_THREADS or all cores)
   std::string variant = "classic";   // classic | onesweep (see above)
+  std::string precond = "none";      // none | mg: CG preconditioned by one multigrid V-cycle (mg.hpp)
 };
 
 template <class T>
@@ -66,6 +68,24 @@ class OneSweepKernels : public Kernels<T> {
   virtual SweepDots sweep(double alpha, double beta) = 0;
 };
 
+// A backend that also runs CG preconditioned by one multigrid V-cycle (--precond mg, cg.hpp's run_pcg) derives
+// from this as well; it holds z and the grid hierarchy of mg.hpp only when it was made with cfg.precond == "mg".
+class Preconditioned {
+ public:
+  virtual ~Preconditioned() = default;
+  // z = M⁻¹ r: one V-cycle (mg.hpp) with r as the finest right-hand side, from z = 0; returns r·z.
+  virtual double precondition() = 0;
+  // p = z + β p.
+  virtual void calc_p_z(double beta) = 0;
+  // Grid sizes of the hierarchy, finest first (for the record).
+  virtual std::vector<long> mg_sizes() const = 0;
+  // y·(M⁻¹x) for whole-grid vectors given as functions of the point (i, j): r = x (this rank's rows), z = M⁻¹ r,
+  // the dot with y reduced over every rank. It overwrites r and z, so it runs before a solve (whose init resets
+  // them): the symmetry check of mg.hpp (--check-symmetry) and the tests.
+  using GridFn = std::function<double(long i, long j)>;
+  virtual double apply_dot(const GridFn& x, const GridFn& y) = 0;
+};
+
 // Every backend name this program knows, and whether it was built in this binary (with the reason if not).
 struct BackendEntry {
   std::string name;
@@ -73,6 +93,7 @@ struct BackendEntry {
   bool built;
   std::string why_not;
   bool onesweep;  // runs --variant onesweep (and uses it by default)
+  bool mg;        // runs --precond mg
 };
 const std::vector<BackendEntry>& backends();
 
@@ -80,11 +101,13 @@ const std::vector<BackendEntry>& backends();
 // instead of 11, the same iterations and solution), classic elsewhere. In float, onesweep's recurrence for p·Ap
 // loses accuracy as the float vectors lose conjugacy: it takes 10-25% more iterations (N = 128..512), so float
 // keeps classic. Throws hpcgi::UsageError for an unknown backend.
-std::string default_variant(const std::string& backend, const std::string& precision);
+// With a preconditioner (precond != "none") it is classic: preconditioned CG has the classic shape.
+std::string default_variant(const std::string& backend, const std::string& precision,
+                            const std::string& precond = "none");
 
 // Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
 // this binary, one whose hardware is absent (a CUDA backend on a machine without a GPU), or a variant the backend
-// does not have.
+// does not have, or a preconditioner it does not have (--precond mg on cublas1, cublas2).
 template <class T>
 std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg);
 

@@ -21,6 +21,7 @@
 #include "common/timer.hpp"
 #include "poisson/cg.hpp"
 #include "poisson/kernels.hpp"
+#include "poisson/mg.hpp"
 
 namespace {
 
@@ -33,6 +34,7 @@ struct Args {
   std::string record_path, solution_path;
   bool json = false;
   bool quiet = false;
+  bool check_symmetry = false;
 };
 
 long default_max_iter(long n) { return std::max(1000L, 4 * n); }
@@ -52,6 +54,9 @@ int solve(const Args& a) {
   auto k = poisson::make_kernels<T>(a.cfg);
   const double alloc_s = t.seconds();
   const bool root = k->is_root();
+  auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
+  // Before the solve: the check overwrites r and z, which the solve's init resets.
+  const double asymmetry = a.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
   const long max_iter = a.max_iter > 0 ? a.max_iter : default_max_iter(a.cfg.n);
 
   hpcgi::Timer since_print;
@@ -61,7 +66,7 @@ int solve(const Args& a) {
       since_print.reset();
     }
   };
-  const poisson::CgResult r = poisson::run_variant(*k, a.cfg.variant, a.tol, max_iter, progress);
+  const poisson::CgResult r = poisson::run_config(*k, a.cfg, a.tol, max_iter, progress);
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   const auto info = k->info();
   if (!root) return r.status == "breakdown" ? hpcgi::kExitNumerical : hpcgi::kExitOk;
@@ -76,6 +81,7 @@ int solve(const Args& a) {
                    {"precision", a.precision},
                    {"tol", a.tol},         {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
                    {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
+  rec["params"]["precond"] = a.cfg.precond;
   if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
   rec["result"] = {{"status", r.status},
                    {"converged", r.status == "converged"},
@@ -86,6 +92,9 @@ int solve(const Args& a) {
                    {"error_inf", r.error_inf},
                    {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
   if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
+  const std::vector<long> sizes = a.cfg.precond == "mg" && pre ? pre->mg_sizes() : std::vector<long>();
+  if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
+  if (a.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
   rec["times_s"] = {{"setup", alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", per_iter},
                     {"check", r.check_s},          {"total", total.seconds()}};
   rec["perf"] = {{"vectors_per_iteration", k->vectors_per_iteration()},
@@ -95,13 +104,18 @@ int solve(const Args& a) {
   rec["backend_info"] = info;
 
   if (!a.quiet) {
-    std::printf("poisson: N=%ld backend=%s variant=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(),
-                a.cfg.variant.c_str(), a.precision.c_str());
+    std::printf("poisson: N=%ld backend=%s variant=%s precond=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(),
+                a.cfg.variant.c_str(), a.cfg.precond.c_str(), a.precision.c_str());
     for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
     std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
                 r.status.c_str(), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
     std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %d vectors of N^2 -> %.2f GB/s)\n",
                 alloc_s + r.init_s, r.solve_s, per_iter * 1e3, k->vectors_per_iteration(), gbps);
+    if (!sizes.empty())
+      std::printf("  multigrid: %zu levels, N = %ld down to %ld, V(1,1) red-black Gauss-Seidel\n", sizes.size(),
+                  sizes.front(), sizes.back());
+    if (a.check_symmetry)
+      std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", asymmetry);
     if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
     if (r.status == "converged" && r.true_rel_residual > a.tol)
       std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
@@ -120,7 +134,8 @@ std::string backend_help() {
   std::string s = "Backends:\n";
   for (const auto& b : poisson::backends()) {
     s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary +
-         (b.onesweep ? " [variants: onesweep (default in double), classic]" : " [variant: classic]");
+         (b.onesweep ? " [variants: onesweep (default in double), classic]" : " [variant: classic]") +
+         (b.mg ? " [precond: none, mg]" : " [precond: none]");
     if (!b.built) s += " [NOT BUILT: " + b.why_not + "]";
     s += "\n";
   }
@@ -146,6 +161,14 @@ int main(int argc, char** argv) {
                  "classic: three fused kernels, 11 vectors per iteration; onesweep: Chronopoulos-Gear CG in one pass, "
                  "6 vectors (default in double where the backend has it, see below)")
       ->check(CLI::IsMember({"classic", "onesweep"}));
+  app.add_option("--precond", a.cfg.precond,
+                 "none: plain CG; mg: CG preconditioned by one geometric multigrid V-cycle (N, N/2, ... 1; red-black "
+                 "Gauss-Seidel forward before and backward after the coarse correction, full weighting, bilinear "
+                 "prolongation); backends serial, openmp, mpi, cuda")
+      ->check(CLI::IsMember({"none", "mg"}))->capture_default_str();
+  app.add_flag("--check-symmetry", a.check_symmetry,
+               "with --precond mg: before the solve, compare (M^-1 x).y with x.(M^-1 y) for random x, y (printed and "
+               "recorded as result.mg_asymmetry)");
   app.add_option("--halo", a.cfg.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
       ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
@@ -155,7 +178,8 @@ int main(int argc, char** argv) {
   app.add_flag("--json", a.json, "print the record on stdout");
   app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
   app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
-             "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n");
+             "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n"
+             "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n");
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
@@ -164,8 +188,10 @@ int main(int argc, char** argv) {
     hpcgi::check_tolerance(a.tol, a.precision);
     hpcgi::check_threads(a.cfg.threads);
     hpcgi::files::check_outputs({{a.record_path, "--record", true}, {a.solution_path, "--solution"}}, {});
-    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision) : a.variant;
+    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision, a.cfg.precond) : a.variant;
     const bool mpi = a.cfg.backend == "mpi";
+    if (a.check_symmetry && a.cfg.precond != "mg")
+      throw hpcgi::UsageError("--check-symmetry checks the multigrid preconditioner: it needs --precond mg");
     if (!mpi && hpcgi::launched_by_mpirun_with_many_ranks())
       throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
     if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);

@@ -4,6 +4,14 @@
 // more row, and when P > N the last P - N ranks hold none and only take part in the reductions.
 // Per iteration, classic: one halo row of p, two reductions; onesweep: two halo rows of r and p (each rank
 // recomputes its neighbours' edge rows rather than waiting for them), one reduction of (r·r, r·Ar).
+// Multigrid (--precond mg, mg_cpu.hpp): every level is split in row blocks as long as every rank holding rows
+// keeps at least kMgMinRows of it: coarse row J belongs to the rank holding fine row 2J + 1, so a rank's coarse
+// block is [y0/2, y1/2) of its fine block [y0, y1). Each distributed level exchanges one halo row of x before every
+// colour sweep and before the residual, one of the residual before the restriction, one of the coarse x before
+// the prolongation. The first level that would leave some rank fewer rows, and every level below it, is gathered
+// to every rank: the restricted rows are made whole by one MPI_Allgatherv, and each rank then runs the rest of
+// the V-cycle on the whole (small) grids by itself, the same arithmetic everywhere, and prolongs into its own rows
+// of the finer level. (Simpler than gathering to fewer ranks, and correct for any N and P, also P > N.)
 #include <mpi.h>
 #include <omp.h>
 
@@ -15,6 +23,7 @@
 #include "common/errors.hpp"
 #include "poisson/backends.hpp"
 #include "poisson/cpu_block.hpp"
+#include "poisson/mg_cpu.hpp"
 
 namespace poisson {
 namespace {
@@ -27,8 +36,10 @@ Split split_rows(long n, int ranks, int rank) {
   return {rank * base + std::min<long>(rank, rem), base + (rank < rem ? 1 : 0)};
 }
 
+constexpr long kMgMinRows = 8;
+
 template <class T>
-class Mpi final : public OneSweepKernels<T> {
+class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgComm<T> {
  public:
   explicit Mpi(const Config& cfg)
       : rank_(world_rank()), size_(world_size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
@@ -37,6 +48,22 @@ class Mpi final : public OneSweepKernels<T> {
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
     down_ = (rank_ + 1 < active) ? rank_ + 1 : MPI_PROC_NULL;
     min_rows_ = n_ / active;
+    if (cfg.precond == "mg") make_mg(active);
+  }
+
+  // Preconditioned (the hierarchy of the comment at the top).
+  double precondition() override { return sum(pcg_->precondition()); }
+  void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
+  std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
+  double apply_dot(const GridFn& x, const GridFn& y) override { return sum(pcg_->apply_dot(x, y, part_.y0)); }
+  // MgComm.
+  void halo(CpuLevel<T>& lv, T* v) override {
+    const long ny = lv.rows.ny;
+    if (ny > 0) swap_rows(lv.row(v, 0), lv.row(v, ny - 1), lv.row(v, -1), lv.row(v, ny), static_cast<int>(lv.s));
+  }
+  void gather_b(CpuLevel<T>& lv) override {
+    const auto& [counts, displs] = gathers_.at(lv.rows.n);
+    MPI_Allgatherv(MPI_IN_PLACE, 0, type(), lv.row(lv.b, 0), counts.data(), displs.data(), type(), MPI_COMM_WORLD);
   }
 
   double init() override { return sum(blk_.init()); }
@@ -80,7 +107,10 @@ class Mpi final : public OneSweepKernels<T> {
                 MPI_DOUBLE, 0, MPI_COMM_WORLD);
     return all;
   }
-  int vectors_per_iteration() const override { return onesweep_ ? 6 : 11; }  // as openmp, plus the halo rows
+  // As openmp, plus the halo rows.
+  int vectors_per_iteration() const override {
+    return pcg_ ? 11 + 2 + mg_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+  }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {
     char lib[MPI_MAX_LIBRARY_VERSION_STRING];
@@ -125,11 +155,13 @@ class Mpi final : public OneSweepKernels<T> {
 
   // Sends `rows` rows starting at row k up and ending at row ny-1-k down; receives the matching ghost rows.
   void exchange_rows(T* v, int k, int rows) {
-    const int count = static_cast<int>(rows * blk_.stride());
-    T* send_up = blk_.row(v, k);
-    T* send_down = blk_.row(v, part_.ny - k - rows);
-    T* recv_up = blk_.row(v, -k - rows);
-    T* recv_down = blk_.row(v, part_.ny + k);
+    swap_rows(blk_.row(v, k), blk_.row(v, part_.ny - k - rows), blk_.row(v, -k - rows), blk_.row(v, part_.ny + k),
+              static_cast<int>(rows * blk_.stride()));
+  }
+
+  // count values from send_up to the rank above and from send_down to the rank below, received into recv_down
+  // (from below) and recv_up (from above).
+  void swap_rows(T* send_up, T* send_down, T* recv_up, T* recv_down, int count) {
     if (!blocking_) {
       MPI_Request req[4];
       MPI_Irecv(recv_up, count, type(), up_, 0, MPI_COMM_WORLD, &req[0]);
@@ -153,6 +185,36 @@ class Mpi final : public OneSweepKernels<T> {
     }
   }
 
+  // The rows of every level on every rank (the comment at the top), the gathers of the first whole level, z and
+  // the hierarchy.
+  void make_mg(int active) {
+    const std::vector<long> sizes = mg_level_sizes(n_);
+    std::vector<Split> all(size_);
+    for (int r = 0; r < size_; ++r) all[r] = split_rows(n_, size_, r);
+    std::vector<LevelRows> rows{{n_, part_.y0, part_.ny, false}};
+    bool whole = false;
+    for (size_t l = 1; l < sizes.size(); ++l) {
+      std::vector<Split> next(size_);
+      for (int r = 0; r < size_; ++r) next[r] = {all[r].y0 / 2, (all[r].y0 + all[r].ny) / 2 - all[r].y0 / 2};
+      if (!whole) {
+        for (int r = 0; r < active; ++r) whole = whole || next[r].ny < kMgMinRows;
+        if (whole) {  // the first whole level: each rank restricts its rows of next, then one Allgatherv
+          const long s = sizes[l] + 2;
+          std::vector<int> counts(size_), displs(size_);
+          for (int r = 0; r < size_; ++r) {
+            counts[r] = static_cast<int>(next[r].ny * s);
+            displs[r] = static_cast<int>(next[r].y0 * s);
+          }
+          gathers_[sizes[l]] = {counts, displs};
+        }
+      }
+      rows.push_back(whole ? LevelRows{sizes[l], 0, sizes[l], true}
+                           : LevelRows{sizes[l], next[rank_].y0, next[rank_].ny, false});
+      all = next;
+    }
+    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, this);
+  }
+
   int rank_, size_;
   Split part_;
   long n_;
@@ -160,6 +222,8 @@ class Mpi final : public OneSweepKernels<T> {
   CpuBlock<T> blk_;
   int up_ = MPI_PROC_NULL, down_ = MPI_PROC_NULL;
   long min_rows_ = 1;  // the fewest rows any rank holding rows has
+  std::unique_ptr<CpuPcg<T>> pcg_;
+  std::map<long, std::pair<std::vector<int>, std::vector<int>>> gathers_;  // n of the first whole level -> counts, displs
 };
 
 }  // namespace

@@ -6,14 +6,24 @@
 
 #include "poisson/backends.hpp"
 #include "poisson/cpu_block.hpp"
+#include "poisson/mg_cpu.hpp"
 
 namespace poisson {
 namespace {
 
 template <class T>
-class OpenMP final : public OneSweepKernels<T> {
+class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
  public:
-  explicit OpenMP(const Config& cfg) : onesweep_(cfg.variant == "onesweep"), blk_(cfg.n, 0, cfg.n) {}
+  explicit OpenMP(const Config& cfg) : onesweep_(cfg.variant == "onesweep"), blk_(cfg.n, 0, cfg.n) {
+    if (cfg.precond != "mg") return;
+    std::vector<LevelRows> rows;
+    for (long m : mg_level_sizes(cfg.n)) rows.push_back({m, 0, m, true});
+    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, nullptr);
+  }
+  double precondition() override { return pcg_->precondition(); }
+  void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
+  std::vector<long> mg_sizes() const override { return mg_level_sizes(blk_.rows()); }
+  double apply_dot(const GridFn& x, const GridFn& y) override { return pcg_->apply_dot(x, y, 0); }
   double init() override { return blk_.init(); }
   double calc_w() override { return blk_.calc_w(); }
   double calc_ur(double alpha) override { return blk_.calc_ur(alpha); }
@@ -27,8 +37,11 @@ class OpenMP final : public OneSweepKernels<T> {
     blk_.copy_x(out.data());
     return out;
   }
-  // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them.
-  int vectors_per_iteration() const override { return onesweep_ ? 6 : 11; }
+  // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them; multigrid: classic
+  // with [p = z + βp] 3 for [p], [r·z] 2 and the V-cycle (mg.hpp).
+  int vectors_per_iteration() const override {
+    return pcg_ ? 11 + 2 + mg_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
+  }
   std::map<std::string, std::string> info() const override {
     return {{"threads", std::to_string(omp_get_max_threads())}};
   }
@@ -36,6 +49,7 @@ class OpenMP final : public OneSweepKernels<T> {
  private:
   bool onesweep_;
   CpuBlock<T> blk_;
+  std::unique_ptr<CpuPcg<T>> pcg_;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 // The 5-point system is scaled by h²: A u = b with A = [4 on the diagonal, -1 for each neighbour], b = h² f.
 #pragma once
 #include <cmath>
+#include <vector>
 
 namespace poisson {
 
@@ -27,6 +28,22 @@ struct Grid {
   // b_ij = h² f(x_i, y_j): the right-hand side of the h²-scaled system.
   double b(long i, long j) const { return h() * h() * rhs_f(coord(i), coord(j)); }
   double u(long i, long j) const { return exact_u(coord(i), coord(j)); }
+};
+
+// b and u of Grid from tables of sin(π x_i) and cos(2π x_i) (the grid is square: the same in y), with the
+// arithmetic of rhs_f and exact_u in the same order, so the values are Grid's bit for bit (a unit test checks),
+// without four trigonometric calls per point (the openmp setup of N = 8192 took 18 s on 2 busy cores).
+struct GridTable {
+  explicit GridTable(const Grid& g) : hh(g.h() * g.h()), s(g.n), c2(g.n) {
+    for (long i = 0; i < g.n; ++i) {
+      s[i] = std::sin(kPi * g.coord(i));
+      c2[i] = std::cos(2 * kPi * g.coord(i));
+    }
+  }
+  double b(long i, long j) const { return hh * (-2.0 * kPi * kPi * (c2[i] * s[j] * s[j] + s[i] * s[i] * c2[j])); }
+  double u(long i, long j) const { return s[i] * s[i] * s[j] * s[j]; }
+  double hh;
+  std::vector<double> s, c2;
 };
 
 }  // namespace poisson

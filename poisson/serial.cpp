@@ -8,17 +8,132 @@
 #include "common/memory.hpp"
 
 #include "poisson/backends.hpp"
+#include "poisson/mg.hpp"
 
 namespace poisson {
 namespace {
 
+// The reference level kernels of mg.hpp: plain loops over unpadded n×n arrays, neighbours outside the grid
+// tested for and taken as zero. Level 0's x is z, its b is r and its residual w (free while z is made).
 template <class T>
-class Serial final : public Kernels<T> {
+class SerialMg final : public MgLevels {
  public:
-  explicit Serial(long n)
-      : g_{n}, n_((hpcgi::require_host_memory("N = " + std::to_string(n), 5.0 * sizeof(T) * n * n), n)), x_(n * n), r_(n * n), p_(n * n), w_(n * n), b_(n * n) {
+  SerialMg(long n, std::vector<T>& z, std::vector<T>& r, std::vector<T>& w) {
+    const std::vector<double> edge = mg_edge_terms(n);
+    for (long m : mg_level_sizes(n)) {
+      Level lv{m, {}, {}, {}, nullptr, nullptr, nullptr, edge[lv_.size()]};
+      if (m == n) {
+        lv.x = &z, lv.b = &r, lv.r = &w;
+      } else {
+        lv.ox.resize(m * m), lv.ob.resize(m * m), lv.orr.resize(m * m);
+      }
+      lv_.push_back(std::move(lv));
+    }
+    for (auto& lv : lv_)
+      if (lv.n != n) lv.x = &lv.ox, lv.b = &lv.ob, lv.r = &lv.orr;
+  }
+  int levels() const override { return static_cast<int>(lv_.size()); }
+  long n(int l) const { return lv_[l].n; }
+  void zero(int l) override { std::fill(lv_[l].x->begin(), lv_[l].x->end(), T(0)); }
+  void smooth(int l, int colour) override {
+    const long n = lv_[l].n;
+    std::vector<T>& x = *lv_[l].x;
+    const std::vector<T>& b = *lv_[l].b;
+    for (long j = 0; j < n; ++j)
+      for (long i = 0; i < n; ++i)
+        if ((i + j) % 2 == colour) x[j * n + i] = (b[j * n + i] + neighbours(x, n, i, j)) / diag(lv_[l], i, j);
+  }
+  void restrict_residual(int l) override {
+    const long n = lv_[l].n, nc = lv_[l + 1].n;
+    const std::vector<T>&x = *lv_[l].x, &b = *lv_[l].b;
+    std::vector<T>& r = *lv_[l].r;
+    for (long j = 0; j < n; ++j)
+      for (long i = 0; i < n; ++i) r[j * n + i] = b[j * n + i] - (diag(lv_[l], i, j) * x[j * n + i] - neighbours(x, n, i, j));
+    std::vector<T>& bc = *lv_[l + 1].b;
+    for (long J = 0; J < nc; ++J)
+      for (long I = 0; I < nc; ++I) {
+        T s = 0;
+        for (long dj = -1; dj <= 1; ++dj)
+          for (long di = -1; di <= 1; ++di)
+            s += weight(di) * weight(dj) * at(r, n, 2 * I + 1 + di, 2 * J + 1 + dj);
+        bc[J * nc + I] = s;
+      }
+  }
+  void prolong_add(int l) override {
+    const long n = lv_[l].n, nc = lv_[l + 1].n;
+    std::vector<T>& x = *lv_[l].x;
+    const std::vector<T>& xc = *lv_[l + 1].x;
+    for (long j = 0; j < n; ++j)
+      for (long i = 0; i < n; ++i) {
+        // The coarse points (I, J) with |2I+1 - i| <= 1 and |2J+1 - j| <= 1.
+        T s = 0;
+        for (long J = (j - 2) / 2; J <= j / 2; ++J)
+          for (long I = (i - 2) / 2; I <= i / 2; ++I)
+            if (std::abs(2 * I + 1 - i) <= 1 && std::abs(2 * J + 1 - j) <= 1)
+              s += weight(2 * I + 1 - i) * weight(2 * J + 1 - j) * at(xc, nc, I, J);
+        x[j * n + i] += s;
+      }
+  }
+
+ private:
+  struct Level {
+    long n;
+    std::vector<T> ox, ob, orr;  // storage of the coarse levels
+    std::vector<T>*x, *b, *r;
+    double e;  // added to the diagonal of the last row and column (mg.hpp)
+  };
+  static T diag(const Level& lv, long i, long j) {
+    return T(4 + (i == lv.n - 1 ? lv.e : 0) + (j == lv.n - 1 ? lv.e : 0));
+  }
+  static T weight(long d) { return d == 0 ? T(1) : T(0.5); }
+  static T at(const std::vector<T>& v, long n, long i, long j) {
+    return i >= 0 && i < n && j >= 0 && j < n ? v[j * n + i] : T(0);
+  }
+  static T neighbours(const std::vector<T>& v, long n, long i, long j) {
+    return at(v, n, i - 1, j) + at(v, n, i + 1, j) + at(v, n, i, j - 1) + at(v, n, i, j + 1);
+  }
+  std::vector<Level> lv_;
+};
+
+template <class T>
+class Serial final : public Kernels<T>, public Preconditioned {
+ public:
+  explicit Serial(const Config& cfg)
+      : g_{cfg.n},
+        n_((hpcgi::require_host_memory("N = " + std::to_string(cfg.n) +
+                                           (cfg.precond == "mg" ? " with multigrid" : ""),
+                                       sizeof(T) * (5.0 * cfg.n * cfg.n +
+                                                    (cfg.precond == "mg" ? cfg.n * cfg.n + mg_extra_values(cfg.n)
+                                                                         : 0.0))),
+            cfg.n)),
+        x_(n_ * n_), r_(n_ * n_), p_(n_ * n_), w_(n_ * n_), b_(n_ * n_) {
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) b_[j * n_ + i] = static_cast<T>(g_.b(i, j));
+    if (cfg.precond == "mg") {
+      z_.resize(n_ * n_);
+      mg_ = std::make_unique<SerialMg<T>>(n_, z_, r_, w_);
+    }
+  }
+
+  double precondition() override {
+    vcycle(*mg_);
+    double rz = 0;
+    for (long k = 0; k < n_ * n_; ++k) rz += static_cast<double>(r_[k]) * z_[k];
+    return rz;
+  }
+  void calc_p_z(double beta) override {
+    const T b = static_cast<T>(beta);
+    for (long k = 0; k < n_ * n_; ++k) p_[k] = z_[k] + b * p_[k];
+  }
+  std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
+  double apply_dot(const GridFn& x, const GridFn& y) override {
+    for (long j = 0; j < n_; ++j)
+      for (long i = 0; i < n_; ++i) r_[j * n_ + i] = static_cast<T>(x(i, j));
+    vcycle(*mg_);
+    double s = 0;
+    for (long j = 0; j < n_; ++j)
+      for (long i = 0; i < n_; ++i) s += static_cast<double>(z_[j * n_ + i]) * y(i, j);
+    return s;
   }
 
   double init() override {
@@ -74,8 +189,9 @@ class Serial final : public Kernels<T> {
   }
 
   std::vector<double> solution() override { return std::vector<double>(x_.begin(), x_.end()); }
-  // Unfused loops: [w = Ap] 2, [p·w] 2, [x, r, r·r] 6, [p] 3.
-  int vectors_per_iteration() const override { return 13; }
+  // Unfused loops: [w = Ap] 2, [p·w] 2, [x, r, r·r] 6, [p] 3; with multigrid (mg_vectors, kernels.hpp) [r·z] 2
+  // and the V-cycle.
+  int vectors_per_iteration() const override { return mg_ ? 13 + 2 + mg_vectors_per_cycle(n_) : 13; }
   std::map<std::string, std::string> info() const override { return {{"threads", "1"}}; }
 
  private:
@@ -94,14 +210,15 @@ class Serial final : public Kernels<T> {
 
   Grid g_;
   long n_;
-  std::vector<T> x_, r_, p_, w_, b_;
+  std::vector<T> x_, r_, p_, w_, b_, z_;
+  std::unique_ptr<SerialMg<T>> mg_;
 };
 
 }  // namespace
 
 template <class T>
 std::unique_ptr<Kernels<T>> make_serial(const Config& cfg) {
-  return std::make_unique<Serial<T>>(cfg.n);
+  return std::make_unique<Serial<T>>(cfg);
 }
 template std::unique_ptr<Kernels<float>> make_serial(const Config&);
 template std::unique_ptr<Kernels<double>> make_serial(const Config&);

@@ -124,6 +124,11 @@ BAD = [
     ["--backend", "serial", "--variant", "onesweep"],
     ["--threads", "0"],
     ["--no-such-flag"],
+    ["--precond", "ilu"],
+    ["--precond", "mg", "--variant", "onesweep"],
+    ["--precond", "mg", "--backend", "cublas1"],
+    ["--precond", "mg", "--backend", "cublas2"],
+    ["--check-symmetry"],
 ]
 
 
@@ -180,3 +185,79 @@ def test_help_lists_backends_and_exits_0():
     assert p.returncode == 0
     for b in ("serial", "openmp", "mpi", "cublas1", "cublas2", "cuda"):
         assert b in p.stdout
+
+
+# --precond mg (poisson/mg.hpp): CG preconditioned by one multigrid V-cycle, every backend against serial.
+@pytest.fixture(scope="module")
+def serial_mg(tmp_path_factory):
+    d = tmp_path_factory.mktemp("serial_mg")
+    return {n: solve(d, f"ser{n}", "--n", n, "--backend", "serial", "--precond", "mg") for n in (5, 100, 257)}
+
+
+def test_precond_is_recorded_and_none_is_the_default():
+    p, rec = poisson("--n", 32, "--backend", "openmp")
+    assert p.returncode == 0 and rec["params"]["precond"] == "none" and "mg_levels" not in rec["result"]
+    p, rec = poisson("--n", 32, "--backend", "openmp", "--precond", "mg")
+    assert p.returncode == 0, p.stderr
+    assert rec["params"]["precond"] == "mg" and rec["params"]["variant"] == "classic"
+    assert rec["result"]["mg_levels"] == [32, 16, 8, 4, 2, 1]
+    assert rec["result"]["iterations"] <= 12
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_openmp_mg_matches_serial(tmp_path, serial_mg, threads):
+    for n in (5, 100, 257):
+        rec, x = solve(tmp_path, "omp", "--n", n, "--backend", "openmp", "--threads", threads, "--precond", "mg")
+        assert rec["result"]["iterations"] == serial_mg[n][0]["result"]["iterations"]
+        assert_matches(rec, x, serial_mg[n])
+
+
+# P not dividing N, P > N (N = 5 on 7 ranks), and levels split across ranks (N = 257 on 2 ranks: 128 rows, then
+# 64, 32, 16, 8 per rank before the coarse levels are gathered) as well as gathered at once (N = 100 on 7).
+@requires_mpi
+@pytest.mark.parametrize("n", [5, 100, 257])
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4, 7])
+def test_mpi_mg_matches_serial(tmp_path, serial_mg, n, ranks):
+    rec, x = solve(tmp_path, "mpi", "--n", n, "--backend", "mpi", "--precond", "mg", np_=ranks)
+    assert rec["params"]["ranks"] == ranks and rec["params"]["precond"] == "mg"
+    assert rec["result"]["iterations"] == serial_mg[n][0]["result"]["iterations"]
+    assert_matches(rec, x, serial_mg[n])
+
+
+@requires_mpi
+@pytest.mark.parametrize("halo", ["blocking", "nonblocking"])
+def test_mpi_mg_with_threads_and_halo_matches_serial(tmp_path, serial_mg, halo):
+    rec, x = solve(tmp_path, "mpi", "--n", 257, "--backend", "mpi", "--precond", "mg", "--threads", 2, "--halo", halo,
+                   np_=2)
+    assert rec["result"]["iterations"] == serial_mg[257][0]["result"]["iterations"]
+    assert_matches(rec, x, serial_mg[257])
+
+
+# (M⁻¹x)·y = x·(M⁻¹y) to 1e-12 relative on random x, y, on every CPU backend and rank count.
+@pytest.mark.parametrize("backend,ranks", [("serial", None), ("openmp", None), *(("mpi", r) for r in (1, 2, 3, 4, 7))])
+@pytest.mark.parametrize("n", [100, 257])
+def test_mg_preconditioner_is_symmetric(backend, ranks, n):
+    if backend == "mpi" and not have_mpi():
+        pytest.skip("bin/poisson built without MPI or no mpirun")
+    p, rec = poisson("--n", n, "--backend", backend, "--precond", "mg", "--check-symmetry", np=ranks)
+    assert p.returncode == 0, p.stderr
+    assert rec["result"]["mg_asymmetry"] <= 1e-12
+
+
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_gpu_mg_matches_serial(tmp_path, requires_gpu, serial_mg, precision):
+    for n in (5, 100, 257):
+        rec, x = solve(tmp_path, "cuda", "--n", n, "--backend", "cuda", "--precond", "mg", "--precision", precision)
+        ref_rec, ref_x = serial_mg[n]
+        if precision == "double":
+            assert rec["result"]["iterations"] == ref_rec["result"]["iterations"]
+            assert_matches(rec, x, serial_mg[n])
+        else:
+            assert rec["result"]["status"] == "converged"
+            assert np.max(np.abs(x - ref_x)) <= 1e-3 * np.max(np.abs(ref_x))
+
+
+def test_gpu_mg_preconditioner_is_symmetric(requires_gpu):
+    p, rec = poisson("--n", 257, "--backend", "cuda", "--precond", "mg", "--check-symmetry")
+    assert p.returncode == 0, p.stderr
+    assert rec["result"]["mg_asymmetry"] <= 1e-12

@@ -43,3 +43,17 @@ TEST(Problem, StencilOfExactSolutionMatchesScaledRhs) {
     prev = worst;
   }
 }
+
+// The tables give Grid's b and u bit for bit (the backends that use them must solve the same system as serial).
+TEST(Problem, GridTableIsGridBitForBit) {
+  for (long n : {1L, 7L, 64L, 1023L}) {
+    const poisson::Grid g{n};
+    const poisson::GridTable t(g);
+    for (long j = 0; j < n; j += 1 + n / 37) {
+      for (long i = 0; i < n; ++i) {
+        EXPECT_EQ(t.b(i, j), g.b(i, j)) << n << " " << i << " " << j;
+        EXPECT_EQ(t.u(i, j), g.u(i, j)) << n << " " << i << " " << j;
+      }
+    }
+  }
+}
