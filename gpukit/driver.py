@@ -367,6 +367,12 @@ def case_estimate(c):
         n = int(t[t.index("--n") + 1])
         vectors = {"cublas1": 14, "cublas2": 16, "cuda": 6}[c.backend()]
         iterations = 1581 * n / 1024
+        if "--precond" in t and t[t.index("--precond") + 1] == "mg":
+            # MG-PCG: 6-7 iterations at every N (measured on the CPU), each a V-cycle of about 40 vector passes
+            # over all levels (smoothing both colours before and after, residual, restriction, prolongation), and
+            # the host-side setup of b and u (3-5 s at N = 8192 on 2 cores here, less on 16)
+            iterations, vectors = 8, 6 + 40
+            return round(2 + n * n / 8192 ** 2 + iterations * vectors * 8 * n * n / 3.5e12)
         return round(1 + iterations * vectors * 8 * n * n / 3.5e12)
     scene = Path(t[2]).name
     return {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}.get(scene, 10)
