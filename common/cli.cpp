@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <unistd.h>
 #include <exception>
@@ -76,9 +77,12 @@ CLI::Validator integer_in(long long lo, long long hi) {
       "INT in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
 }
 
-CLI::Validator fraction_below_one() {
+namespace {
+
+// A validator for a floating-point option whose value must satisfy `ok`; `want` says what it must be.
+CLI::Validator real_number(bool (*ok)(double), const char* want, const char* name) {
   return CLI::Validator(
-      [](std::string& s) -> std::string {
+      [ok, want](std::string& s) -> std::string {
         double v = 0;
         try {
           size_t pos = 0;
@@ -87,10 +91,20 @@ CLI::Validator fraction_below_one() {
         } catch (...) {
           return "'" + one_line(s, 40) + "' is not a number";
         }
-        if (!(v >= 0 && v < 1)) return "must be a number from 0 to below 1, got " + s;
+        if (!ok(v)) return std::string("must be ") + want + ", got " + one_line(s, 40);
         return {};
       },
-      "[0, 1)");
+      name);
+}
+
+}  // namespace
+
+CLI::Validator positive_finite() {
+  return real_number([](double v) { return std::isfinite(v) && v > 0; }, "a finite number > 0", "POSITIVE");
+}
+
+CLI::Validator fraction_below_one() {
+  return real_number([](double v) { return v >= 0 && v < 1; }, "a number from 0 to below 1", "[0, 1)");
 }
 
 void check_threads(int threads) {

@@ -17,22 +17,7 @@ int run_main(const std::string& program, const std::function<int()>& body);
 bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code);
 
 // A validator for floating-point options: finite and > 0 (rejects NaN, inf, 0 and negatives).
-inline CLI::Validator positive_finite() {
-  return CLI::Validator(
-      [](std::string& s) -> std::string {
-        double v = 0;
-        try {
-          size_t pos = 0;
-          v = std::stod(s, &pos);
-          if (pos != s.size()) return "'" + s + "' is not a number";
-        } catch (...) {
-          return "'" + s + "' is not a number";
-        }
-        if (!std::isfinite(v) || v <= 0) return "must be a finite number > 0, got " + s;
-        return {};
-      },
-      "POSITIVE");
-}
+CLI::Validator positive_finite();
 
 // A relative tolerance must lie in (0, 1) and be reachable in the working precision ("float" or "double"): at or
 // above 1 every run "converges" at once, a hundred times below the precision's rounding (FLT_EPSILON, DBL_EPSILON)
