@@ -6,7 +6,7 @@
 import argparse
 import sys
 
-from analysis import accuracy, audit, figure42, mpi_radiosity, radiosity_tables, report, table41
+from analysis import accuracy, audit, figure42, mpi_radiosity, radiosity_tables, report, table41, table42_audit
 
 
 def main():
@@ -19,7 +19,7 @@ def main():
     if a.command == "tables":
         made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
-                "mpi_radiosity": mpi_radiosity.write_table(a.preset)}
+                "mpi_radiosity": mpi_radiosity.write_table(a.preset), "table42_audit": table42_audit.write(a.preset)}
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}): {'no records' if out is None else 'written'}")
         return 0

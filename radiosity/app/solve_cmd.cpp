@@ -107,17 +107,18 @@ std::string gib(double bytes) {
 // double, three channels, twice, and the host's copies of B (a few per run).
 double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
 
-// The history of a run (--history): per iterate k = 0, 1, ... its norms as the method measured them (squares of
-// 2-norms per channel, ∞-norms; null where not known), and the measures the issue names, per channel and stacked,
-// from which analysis/table42_audit.py replays any stopping rule.
+// The history of a run (--history): per iterate k = 0, 1, ... its norms as the method measured them (res2, step2,
+// b2: squares of 2-norms per channel; step_inf, b_inf: ∞-norms; null where not known), from which
+// analysis/table42_audit.py replays any stopping rule, the run's rule value, and the relative measures
+// ‖e - A b‖₂/‖e‖₂, ‖Δb‖₂/‖b‖₂, ‖Δb‖∞/‖b‖∞ per channel (rel_*) and over the stacked channels (rel_*_stacked).
 nlohmann::json history_json(const SolveResult& res, const SolveConfig& cfg) {
   nlohmann::json h = {{"rule", cfg.stop}, {"e2", res.e2}, {"r0_2", res.r0_2}};
   const StopRule rule = parse_stop_rule(cfg.stop);
   const StopRule measures[] = {parse_stop_rule("residual-e"), parse_stop_rule("residual-e+stacked"),
                                parse_stop_rule("step-2"), parse_stop_rule("step-2+stacked"),
                                parse_stop_rule("step-inf"), parse_stop_rule("step-inf+stacked")};
-  const char* names[] = {"residual_e", "residual_e_stacked", "step_2", "step_2_stacked", "step_inf",
-                         "step_inf_stacked"};
+  const char* names[] = {"rel_residual_e", "rel_residual_e_stacked", "rel_step_2", "rel_step_2_stacked",
+                         "rel_step_inf", "rel_step_inf_stacked"};
   for (const char* key : {"iteration", "res2", "step2", "step_inf", "b2", "b_inf", "rule_value", names[0], names[1],
                           names[2], names[3], names[4], names[5]})
     h[key] = nlohmann::json::array();
