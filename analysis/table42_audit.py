@@ -174,7 +174,9 @@ def interval_table(df, counts):
         for label, h, n, other, name in (("jacobi", jf if jf is not None else jd, jac_n, bd, "bicgstab"),
                                          ("bicgstab", bd, bic_n, jd, "jacobi")):
             iv = tol_interval(h, DEFAULT_RULE, n) if h is not None else None
-            row[f"{label} = {n} for tol in"] = "not reached" if iv is None else (
+            short = (f"none: the run stops at {int(h['iteration'][-1]) - (label != 'bicgstab')} iterations "
+                     f"(tol {g[g['history'].map(lambda x: x is h)]['params.tol'].iloc[0]:g})") if h is not None else "no run"
+            row[f"{label} = {n} for tol in"] = short if iv is None else (
                 f"[{iv[0]:.3g}, {iv[1]:.3g})" if iv[0] < iv[1] else "empty (not monotone)")
             at = None
             if iv is not None and iv[0] < iv[1] and other is not None:
@@ -315,7 +317,21 @@ def verdict(df, counts):
                       and r[col_b[0]].startswith("[") and r.get("jacobi there") is not None
                       and not (isinstance(r.get("jacobi there"), float) and math.isnan(r["jacobi there"])) else "") +
                      (f" One tolerance for both counts: {r['both for tol in']}." if isinstance(r.get("both for tol in"), str)
-                      else ""))
+                      else "") +
+                     (f" No tolerance gives the report's BiCG-STAB count {counts[s][1]} ({r[col_b[0]]})."
+                      if col_b and isinstance(r[col_b[0]], str) and r[col_b[0]].startswith("none") else ""))
+    gs = gauss_seidel_table(df)
+    for _, r in gs[gs["start"] == "rrv"].iterrows() if not gs.empty else []:
+        s = next(k for k, v in SCENE_NAMES.items() if v == r["scene"])
+        by = {int(c.split(", ")[1].split()[0]): int(r[c]) for c in gs.columns
+              if c.startswith("gauss-seidel, ") and not pd.isna(r[c])}
+        if s in counts and by:
+            same = [t for t, n in by.items() if n == counts[s][0]]
+            lines.append(f"- {r['scene']} ({r['weights']}): Gauss-Seidel to 1e-6 takes " +
+                         ", ".join(f"{n} sweeps on {t} thread{'s' if t > 1 else ''}" for t, n in sorted(by.items())) +
+                         f" (Jacobi {r['jacobi']}); the report's Jacobi count {counts[s][0]} is " +
+                         (f"Gauss-Seidel's on {', '.join(map(str, same))} threads." if same else
+                          "none of them."))
     return lines
 
 
@@ -324,10 +340,15 @@ def write(preset):
     if df.empty:
         return None
     counts = report_counts()
-    bad = df[df["replayed"] != df["result.iterations"]]
+    ok = df[df["result.status"] == "converged"]
+    bad = ok[ok["replayed"] != ok["result.iterations"]]
+    failed = df[df["result.status"] != "converged"]
     notes = [f"Each cell: Jacobi / BiCG-STAB iterations to {TOL:g} in float, the count of the run itself; its history "
-             f"replays it in {len(df) - len(bad)} of {len(df)} audit runs" +
-             ("." if bad.empty else f" (not in: {', '.join(f'{r.method} {r.rule}' for r in bad.itertuples())}).")]
+             f"replays it in {len(ok) - len(bad)} of {len(ok)} converged audit runs" +
+             ("." if bad.empty else f" (not in: {', '.join(f'{r.method} {r.rule}' for r in bad.itertuples())}).") +
+             ("" if failed.empty else " Not converged: " + ", ".join(
+                 f"{r['method']}{' omega %g' % r['params.omega'] if r['method'] == 'sor' else ''} on "
+                 f"{int(r['threads'])} threads: {r['result.status']}" for _, r in failed.iterrows()) + ".")]
     write_table("table42_audit_rules", preset, "Table 4.2 audited: stopping rule x start -> iterations",
                 rule_table(df), notes)
     write_table("table42_audit_interval", preset, "The tolerance that gives the report's counts (default rule)",
