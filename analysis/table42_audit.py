@@ -210,8 +210,8 @@ def gauss_seidel_table(df):
 
 
 def table42_with_gs(preset):
-    """Table 4.2's scenes: OpenMP Jacobi, BiCG-STAB and Gauss-Seidel (iterations, run time: median of repeats), the
-    fastest and its ratio to the report's OpenMP Jacobi time."""
+    """Table 4.2's scenes: OpenMP Jacobi, BiCG-STAB, Gauss-Seidel and SOR (one thread) (iterations, run time: median
+    of repeats), the fastest and its ratio to the report's OpenMP Jacobi time."""
     from analysis.radiosity_tables import solves
     df = solves("table42", preset)
     if df.empty:
@@ -221,7 +221,7 @@ def table42_with_gs(preset):
     for s, g in df.groupby("scene_id"):
         row = {"scene": int(s), "patches": int(g["params.patches"].iloc[0])}
         times = {}
-        for m in ("jacobi", "bicgstab", "gauss-seidel"):
+        for m in ("jacobi", "bicgstab", "gauss-seidel", "sor"):
             x = g[g["params.method"] == m]
             if len(x):
                 row[f"{m} iter"] = x["result.iterations"].median()
@@ -336,9 +336,14 @@ def verdict(df, counts):
 
 
 def write(preset):
+    t = table42_with_gs(preset)
+    if not t.empty:
+        write_table("table42_gs", preset, "Table 4.2 with Gauss-Seidel (OpenMP, AOS, 1e-6; run time: setup + solve)",
+                    t, ["Times are medians of repeats on this machine; the report's on one maya node. sor: omega "
+                        "1.4 on one thread (case list table42)."])
     df = runs(preset)
     if df.empty:
-        return None
+        return None if t.empty else t
     counts = report_counts()
     ok = df[df["result.status"] == "converged"]
     bad = ok[ok["replayed"] != ok["result.iterations"]]
@@ -359,13 +364,20 @@ def write(preset):
     write_table("table42_audit_gs", preset, "Gauss-Seidel beside Jacobi and BiCG-STAB (default rule, 1e-6, float)",
                 gauss_seidel_table(df), ["openmp Gauss-Seidel: Gauss-Seidel inside each thread's block of rows, "
                                          "Jacobi between blocks, so its count depends on the thread count."])
-    t = table42_with_gs(preset)
-    if not t.empty:
-        write_table("table42_gs", preset, "Table 4.2 with Gauss-Seidel (OpenMP, AOS, 1e-6; run time: setup + solve)",
-                    t, ["Times are medians of repeats on this machine; the report's on one maya node."])
     plot(preset, df, counts)
     (TABLES / f"table42_audit_verdict_{preset}.md").write_text("\n".join(verdict(df, counts)) + "\n")
     return df
+
+
+def fastest_lines(preset):
+    """The fastest CPU method per Table 4.2 scene and its ratio to the report's OpenMP Jacobi, in sentences."""
+    t = table42_with_gs(preset)
+    if t.empty or "fastest" not in t.columns:
+        return []
+    return [f"- Scene {int(r['scene'])} ({int(r['patches'])} patches): the fastest CPU method is {r['fastest']}, "
+            f"{r[r['fastest'] + ' s']:.4g} s, {r['fastest / report Jacobi']:.3g} times the report's OpenMP Jacobi "
+            f"({r['report Jacobi s']:g} s)." for _, r in t.iterrows() if isinstance(r["fastest"], str)
+            and not pd.isna(r.get("fastest / report Jacobi"))]
 
 
 def report_section(preset, include, image):
@@ -379,10 +391,11 @@ def report_section(preset, include, image):
            "rrv`: max(radiosity, emission), or zero). Every run below recorded its residual history "
            "(`--history`); case list `table42-audit`.", ""]
     if df.empty:
-        return out + ["No table42-audit records for this preset yet.", ""]
+        return out + ["No table42-audit records for this preset yet (`slurm/run-local table42-audit-formfactors "
+                      "table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
     counts = report_counts()
     out += ["### Verdict", "", *verdict(df, counts), "",
             include("table42_audit_rules", preset), include("table42_audit_interval", preset),
-            include("table42_audit_gs", preset), include("table42_gs", preset),
+            include("table42_audit_gs", preset), include("table42_gs", preset), *fastest_lines(preset), "",
             image("table42_audit", preset, "Residual histories with the report's counts"), ""]
     return out

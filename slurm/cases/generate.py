@@ -51,7 +51,10 @@ def experiments(preset, p):
     e["table42"] = ("Table 4.2: OpenMP Jacobi vs. BiCG-STAB to a relative residual of 1e-6, and Gauss-Seidel beside "
                     "them", None, [
         f"{solve} {scene_args(s, preset)} --method {m} --tol 1e-6 --backend openmp --layout aos"
-        for s in p["scenes"] for m in ("jacobi", "bicgstab", "gauss-seidel")])
+        for s in p["scenes"] for m in ("jacobi", "bicgstab", "gauss-seidel",
+                                       # SOR on one thread (several threads couple blocks by over-relaxed Jacobi,
+                                       # which may diverge); omega 1.4: the fewest sweeps on room3 in the audit
+                                       "sor --omega 1.4 --threads 1")])
     e["table43"] = ("Table 4.3: AOS Jacobi to 1e-6: Original (RRV's loop, the report's iterations), Serial, CUDA, OpenMP", None, [
         line for s in p["scenes"] for line in (
             f"{solve} {scene_args(s, preset)} --backend original --steps {REPORT_JACOBI_ITERS[s]}",
