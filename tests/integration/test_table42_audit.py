@@ -127,7 +127,7 @@ def test_ci_audit_case_lists_run_and_make_the_tables(tmp_path):
     assert p.returncode == 0, p.stderr
     tables = tmp_path / "results" / "tables"
     rules = (tables / "table42_audit_rules_ci.md").read_text()
-    assert f"replays it in {len(lines)} of {len(lines)} audit runs." in rules
+    assert f"replays it in {len(lines)} of {len(lines)} converged audit runs." in rules
     verdict = (tables / "table42_audit_verdict_ci.md").read_text()
     assert "Both counts at once" in verdict
     assert (tmp_path / "results" / "plots" / "table42_audit_ci.png").exists()
