@@ -321,13 +321,13 @@ def verdict(df, counts):
                      (f" No tolerance gives the report's BiCG-STAB count {counts[s][1]} ({r[col_b[0]]})."
                       if col_b and isinstance(r[col_b[0]], str) and r[col_b[0]].startswith("none") else ""))
     gs = gauss_seidel_table(df)
-    for _, r in gs[gs["start"] == "rrv"].iterrows() if not gs.empty else []:
+    for _, r in gs.iterrows() if not gs.empty else []:
         s = next(k for k, v in SCENE_NAMES.items() if v == r["scene"])
         by = {int(c.split(", ")[1].split()[0]): int(r[c]) for c in gs.columns
               if c.startswith("gauss-seidel, ") and not pd.isna(r[c])}
         if s in counts and by:
             same = [t for t, n in by.items() if n == counts[s][0]]
-            lines.append(f"- {r['scene']} ({r['weights']}): Gauss-Seidel to 1e-6 takes " +
+            lines.append(f"- {r['scene']} ({r['weights']}, start {r['start']}): Gauss-Seidel to 1e-6 takes " +
                          ", ".join(f"{n} sweeps on {t} thread{'s' if t > 1 else ''}" for t, n in sorted(by.items())) +
                          f" (Jacobi {r['jacobi']}); the report's Jacobi count {counts[s][0]} is " +
                          (f"Gauss-Seidel's on {', '.join(map(str, same))} threads." if same else
