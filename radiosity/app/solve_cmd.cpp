@@ -158,7 +158,7 @@ void add_solve(CLI::App& app, SolveArgs& a) {
           ->capture_default_str();
   std::string rules;
   for (const std::string& r : stop_rule_bases()) rules += (rules.empty() ? "" : " | ") + r;
-  cmd->add_option("--stop", a.cfg.stop,
+  CLI::Option* stop = cmd->add_option("--stop", a.cfg.stop,
                   "stopping rule with --tol: " + rules + " (residual: ||e - A b|| over ||e||, ||r0||, ||b||; step: "
                   "||b_k - b_k-1|| over ||b_k||, 2- or inf-norm), each +stacked (the channels as one vector, not the "
                   "largest channel) and/or +squared (the value squared)")
@@ -220,9 +220,11 @@ void add_solve(CLI::App& app, SolveArgs& a) {
       ->delimiter(',')->check(CLI::PositiveNumber);
   cmd->add_option("--snapshot-prefix", a.snapshot_prefix, "snapshot files are PREFIX_iterK.png (default: snapshot)");
   cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference and the error reference");
-  cmd->callback([&a, layout, fused, distribution, overlap, omega] {
+  cmd->callback([&a, layout, fused, distribution, overlap, omega, stop] {
     if (omega->count() > 0 && a.cfg.method != "sor")
       throw CLI::ValidationError("--omega applies to --method sor, not " + a.cfg.method);
+    if (stop->count() > 0 && a.cfg.steps > 0)
+      throw CLI::ValidationError("--stop is a rule for --tol; --steps runs a fixed number of steps");
     if (a.reference_divide > 0 && a.reference_ff.empty())
       throw CLI::ValidationError("--reference-divide needs --reference-ff, the form factors of that mesh");
     // An option of one backend given with another is refused, not ignored: the record would claim it.

@@ -99,6 +99,7 @@ def test_bicgstab_from_zero_breaks_down_on_unreflecting_lights(scenes):
     (["--stop", "residual-x"], "unknown stopping rule"),
     (["--stop", "step-2+cubed"], "unknown or repeated modifier"),
     (["--start", "ones"], "--start"),
+    (["--steps", "4", "--stop", "step-2"], "--stop is a rule for --tol"),
     (["--backend", "original", "--steps", "3", "--history"], "original"),
     (["--method", "gauss-seidel", "--backend", "cuda"], "cuda"),
 ])
