@@ -69,10 +69,10 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 PRESET ?= quick
 RUNNER ?= local
 # The accuracy sweeps and extremes (issue 6) add about four minutes to the quick preset on 2 cores, the MPI
-# experiments (issue 9) about 70 seconds.
+# experiments (issue 9) about 70 seconds; the Table 4.2 audit (issue 21) 2 hemicubes and 154 solves of room3.
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
                accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
-               mpi-radiosity mpi-large
+               mpi-radiosity mpi-large table42-audit-formfactors table42-audit
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))

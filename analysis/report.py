@@ -6,7 +6,7 @@ import os
 
 import pandas as pd
 
-from analysis import accuracy, mpi_radiosity, radiosity_tables, table41
+from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
 from analysis.records import load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, tables_dir
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
@@ -194,6 +194,7 @@ def write(preset):
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
+            *table42_audit.report_section(preset, include, image),
             "### Figure 4.2", "", image("figure42", preset, "Figure 4.2"), "",
             *accuracy.report_section(preset, include, image), "",
             *mpi_radiosity.report_section(preset, include, image),

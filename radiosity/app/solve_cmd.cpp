@@ -73,6 +73,8 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
     ref.ff_threshold = 0;
     ref.fused = ref.overlap = false;
     if (cfg.backend == "original") ref.method = "jacobi";
+    if (cfg.backend == "serial") ref.threads = 1;  // gauss-seidel and sor: the same one block of rows
+    ref.history = false;
     SolveResult r = solve(sys, ref);
     v.reference_iterations = r.iterations;
     R = std::move(r.B);
@@ -103,7 +105,41 @@ std::string gib(double bytes) {
 
 // Vectors of a solve and of its float64 references beside it: at most BiCG-STAB's 7 slots plus ρ and E, in
 // double, three channels, twice, and the host's copies of B (a few per run).
-double vector_bytes(size_t n) { return (2 * (7 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
+double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
+
+// The history of a run (--history): per iterate k = 0, 1, ... its norms as the method measured them (res2, step2,
+// b2: squares of 2-norms per channel; step_inf, b_inf: ∞-norms; null where not known), from which
+// analysis/table42_audit.py replays any stopping rule, the run's rule value, and the relative measures
+// ‖e - A b‖₂/‖e‖₂, ‖Δb‖₂/‖b‖₂, ‖Δb‖∞/‖b‖∞ per channel (rel_*) and over the stacked channels (rel_*_stacked).
+nlohmann::json history_json(const SolveResult& res, const SolveConfig& cfg) {
+  nlohmann::json h = {{"rule", cfg.stop}, {"e2", res.e2}, {"r0_2", res.r0_2}};
+  const StopRule rule = parse_stop_rule(cfg.stop);
+  const StopRule measures[] = {parse_stop_rule("residual-e"), parse_stop_rule("residual-e+stacked"),
+                               parse_stop_rule("step-2"), parse_stop_rule("step-2+stacked"),
+                               parse_stop_rule("step-inf"), parse_stop_rule("step-inf+stacked")};
+  const char* names[] = {"rel_residual_e", "rel_residual_e_stacked", "rel_step_2", "rel_step_2_stacked",
+                         "rel_step_inf", "rel_step_inf_stacked"};
+  for (const char* key : {"iteration", "res2", "step2", "step_inf", "b2", "b_inf", "rule_value", names[0], names[1],
+                          names[2], names[3], names[4], names[5]})
+    h[key] = nlohmann::json::array();
+  for (const IterateNorms& k : res.history) {
+    h["iteration"].push_back(k.iteration);
+    h["res2"].push_back(k.res2);
+    h["step2"].push_back(k.step2);
+    h["step_inf"].push_back(k.step_inf);
+    h["b2"].push_back(k.b2);
+    h["b_inf"].push_back(k.b_inf);
+    h["rule_value"].push_back(rule.value(k, res.e2, res.r0_2));
+    for (int m = 0; m < 6; ++m) {
+      const Rgb v = measures[m].values(k, res.e2, res.r0_2);
+      if (m % 2)
+        h[names[m]].push_back(v[0]);
+      else
+        h[names[m]].push_back(v);
+    }
+  }
+  return h;
+}
 
 }  // namespace
 
@@ -113,11 +149,27 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   add_memory_option(cmd, a);
   cmd->add_option("--ff", a.ff, "form-factor file written by `bin/radiosity formfactors` for this scene")
       ->required();
-  cmd->add_option("--method", a.cfg.method, "jacobi | bicgstab")->check(CLI::IsMember({"jacobi", "bicgstab"}))
+  cmd->add_option("--method", a.cfg.method,
+                  "jacobi | bicgstab | gauss-seidel (sweeps in patch order; openmp: each thread its block of rows, "
+                  "Jacobi between blocks) | sor (gauss-seidel relaxed by --omega)")
+      ->check(CLI::IsMember({"jacobi", "bicgstab", "gauss-seidel", "sor"}))->capture_default_str();
+  CLI::Option* omega =
+      cmd->add_option("--omega", a.cfg.omega, "sor: the relaxation factor W in (0, 2) (1: gauss-seidel)")
+          ->capture_default_str();
+  std::string rules;
+  for (const std::string& r : stop_rule_bases()) rules += (rules.empty() ? "" : " | ") + r;
+  CLI::Option* stop = cmd->add_option("--stop", a.cfg.stop,
+                  "stopping rule with --tol: " + rules + " (residual: ||e - A b|| over ||e||, ||r0||, ||b||; step: "
+                  "||b_k - b_k-1|| over ||b_k||, 2- or inf-norm), each +stacked (the channels as one vector, not the "
+                  "largest channel) and/or +squared (the value squared)")
       ->capture_default_str();
-  auto* steps = cmd->add_option("--steps", a.cfg.steps, "exactly K Jacobi steps (RRV: 32), no tolerance")
+  cmd->add_option("--start", a.cfg.start, "b_0: rrv (max(radiosity, emission), RRV's) | zero | emission")
+      ->check(CLI::IsMember({"rrv", "zero", "emission"}))->capture_default_str();
+  cmd->add_flag("--history", a.cfg.history,
+                "record every iterate's residuals and steps (result.history; O(n) per iteration)");
+  auto* steps = cmd->add_option("--steps", a.cfg.steps, "exactly K Jacobi (Gauss-Seidel, SOR) steps (RRV: 32), no tolerance")
                     ->check(hpcgi::integer_in(1, 1LL << 40));
-  cmd->add_option("--tol", a.cfg.tol, "stop when every channel's ||e - A b|| / ||e|| <= tol")
+  cmd->add_option("--tol", a.cfg.tol, "stop when the stopping rule (--stop; default: every channel's ||e - A b|| / ||e||) is <= tol")
       ->check(hpcgi::positive_finite())->capture_default_str()->excludes(steps);
   cmd->add_option("--max-iter", a.cfg.max_iter, "iteration limit with --tol")->check(hpcgi::integer_in(1, 1LL << 40))
       ->capture_default_str();
@@ -168,7 +220,11 @@ void add_solve(CLI::App& app, SolveArgs& a) {
       ->delimiter(',')->check(hpcgi::integer_in(1, 1LL << 40));
   cmd->add_option("--snapshot-prefix", a.snapshot_prefix, "snapshot files are PREFIX_iterK.png (default: snapshot)");
   cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference and the error reference");
-  cmd->callback([&a, layout, fused, distribution, overlap] {
+  cmd->callback([&a, layout, fused, distribution, overlap, omega, stop] {
+    if (omega->count() > 0 && a.cfg.method != "sor")
+      throw CLI::ValidationError("--omega applies to --method sor, not " + a.cfg.method);
+    if (stop->count() > 0 && a.cfg.steps > 0)
+      throw CLI::ValidationError("--stop is a rule for --tol; --steps runs a fixed number of steps");
     if (a.reference_divide > 0 && a.reference_ff.empty())
       throw CLI::ValidationError("--reference-divide needs --reference-ff, the form factors of that mesh");
     // An option of one backend given with another is refused, not ignored: the record would claim it.
@@ -423,6 +479,10 @@ int run_solve(const SolveArgs& a) {
                    {"precision", cfg.precision},
                    {"steps", cfg.steps},
                    {"tol", cfg.steps > 0 ? nlohmann::json() : nlohmann::json(cfg.tol)},
+                   {"stop", cfg.steps > 0 ? nlohmann::json() : nlohmann::json(cfg.stop)},
+                   {"start", cfg.start},
+                   {"omega", cfg.method == "sor" ? nlohmann::json(cfg.omega) : nlohmann::json()},
+                   {"history", cfg.history},
                    {"max_iter", cfg.max_iter},
                    {"threads", res.threads},
                    {"hemicube", ff.params.resolution},
@@ -451,6 +511,7 @@ int run_solve(const SolveArgs& a) {
                    {"skipped_rows", skipped_rows},
                    {"matrix_storage_bytes", matrix_storage_bytes}};
   if (!res.detail.empty()) rec["result"]["detail"] = res.detail;
+  if (cfg.history) rec["result"]["history"] = history_json(res, cfg);
   if (!failed) {  // the range of B, for scenes whose answer is known in closed form (a closed box: E / (1 - ρ))
     Rgb lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (const Rgb& b : res.B)
@@ -530,6 +591,9 @@ int run_solve(const SolveArgs& a) {
     std::printf("  form factors: %s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
                 to_string(storage), to_string(values), a.threshold, kept, n2, 100.0 * double(kept) / n2,
                 matrix_storage_bytes / 1e6, skipped_rows);
+    if (cfg.stop != "residual-e" || cfg.start != "rrv" || cfg.method == "sor")
+      std::printf("  stopping rule %s, start %s%s\n", cfg.steps > 0 ? "(fixed steps)" : cfg.stop.c_str(),
+                  cfg.start.c_str(), cfg.method == "sor" ? (", omega " + std::to_string(cfg.omega)).c_str() : "");
     std::printf("  status %s after %ld iterations: relative residual r %.3e g %.3e b %.3e\n", to_string(res.status),
                 res.iterations, res.rel_residual[0], res.rel_residual[1], res.rel_residual[2]);
     if (!res.detail.empty()) std::printf("  %s\n", res.detail.c_str());

@@ -8,6 +8,7 @@
 
 #include "radiosity/solve/kernels.hpp"
 #include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/sor_sweep.hpp"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity {
@@ -34,6 +35,11 @@ class CpuKernels final : public Kernels<T> {
   Rgb dist2(int x, int y) override { return radiosity::dist2(ex_, vec_.at(x), vec_.at(y)); }
   void axpby(int y, const Rgb& a, int x, const Rgb& b) override { radiosity::axpby(ex_, vec_.at(y), a, vec_.at(x), b); }
   void copy(int y, int x) override { radiosity::copy(ex_, vec_.at(y), vec_.at(x)); }
+  Rgb max_abs(int x) override { return radiosity::max_abs_diff(ex_, vec_.at(x), static_cast<const V*>(nullptr)); }
+  Rgb max_abs_diff(int x, int y) override { return radiosity::max_abs_diff(ex_, vec_.at(x), &vec_.at(y)); }
+  Rgb sor_sweep(int y, int x, double omega) override {
+    return radiosity::sor_sweep(ex_, F_, vec_.at(x), vec_.at(y), rho_, e_, T(omega));
+  }
   int threads() const override { return ex_.threads(); }
   int channels() const override { return V::kChannels; }
   // Dense: the rows computed times n values; csr: the kept values, their columns and the row starts.

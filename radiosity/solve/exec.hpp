@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <utility>
 #include <vector>
@@ -30,6 +31,10 @@ struct SerialExec {
   }
   template <class Body>
   Rgb reduce(size_t n, Body&& body) const {
+    return body(size_t{0}, n);
+  }
+  template <class Body>
+  Rgb reduce_max(size_t n, Body&& body) const {
     return body(size_t{0}, n);
   }
 };
@@ -64,6 +69,16 @@ class OpenMPExec {
     for (const Partial& p : partial_)
       for (int c = 0; c < 3; ++c) s[c] += p.v[c];
     return s;
+  }
+  // The same with the largest partial instead of the sum (an ∞-norm; NaN wins, so it is seen).
+  template <class Body>
+  Rgb reduce_max(size_t n, Body&& body) const {
+    reduce(n, body);
+    Rgb m = partial_[0].v;
+    for (const Partial& p : partial_)
+      for (int c = 0; c < 3; ++c)
+        if (std::isnan(p.v[c]) || p.v[c] > m[c]) m[c] = p.v[c];
+    return m;
   }
 
  private:

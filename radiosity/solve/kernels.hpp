@@ -3,8 +3,11 @@
 // operations Jacobi and BiCG-STAB are written in. Scalars cross the interface in double, one per channel.
 // Each backend (serial, openmp, the GPU ones, mpi) implements this class in its own file; the methods do not change.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
+#include "common/errors.hpp"
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/system.hpp"
 
@@ -24,6 +27,23 @@ class Kernels {
   virtual Rgb dist2(int x, int y) = 0;                           // Σ (x - y)² per channel
   virtual void axpby(int y, const Rgb& a, int x, const Rgb& b) = 0;  // y = a ⊙ x + b ⊙ y
   virtual void copy(int y, int x) = 0;
+  // max_i |x_ic| and max_i |x_ic - y_ic| per channel, for the ∞-norm stopping rules and the history. This default
+  // fetches the vectors (O(n) copies); the host backends reduce in place.
+  virtual Rgb max_abs(int x) {
+    download(x, host_a_);
+    return max_abs_of(host_a_, nullptr);
+  }
+  virtual Rgb max_abs_diff(int x, int y) {
+    download(x, host_a_);
+    download(y, host_b_);
+    return max_abs_of(host_a_, &host_b_);
+  }
+  // One sweep of Gauss-Seidel (omega = 1) or SOR from slot x into slot y (linalg.hpp's sor_sweep), returning
+  // Σ_i (e - A x)_i² per channel, the residual of x. Only the host backends run it; solve() refuses the others
+  // before anything is built, so this default is never reached from there.
+  virtual Rgb sor_sweep(int /*y*/, int /*x*/, double /*omega*/) {
+    throw hpcgi::UsageError("this backend does not run gauss-seidel or sor (serial and openmp do)");
+  }
   virtual int threads() const = 0;
   virtual double matrix_bytes() const = 0;  // bytes one matvec reads from the matrix
   // Channels it solves: 3, or 1 for a grey system solved once (its dots and downloads give r = g = b).
@@ -39,6 +59,15 @@ class Kernels {
   virtual Rgb relative_residual(const System& sys, const std::vector<Rgb>& B) const {
     return radiosity::relative_residual(sys, B);
   }
+
+ private:
+  static Rgb max_abs_of(const std::vector<Rgb>& a, const std::vector<Rgb>* b) {
+    Rgb m{0, 0, 0};
+    for (size_t i = 0; i < a.size(); ++i)
+      for (int c = 0; c < 3; ++c) m[c] = std::max(m[c], std::abs(a[i][c] - (b ? (*b)[i][c] : 0.0)));
+    return m;
+  }
+  std::vector<Rgb> host_a_, host_b_;
 };
 
 }  // namespace radiosity

@@ -4,6 +4,7 @@
 // convergence and cost O(n).
 #pragma once
 #include <algorithm>
+#include <cmath>
 #include <type_traits>
 #include <cstddef>
 #include <cstdint>
@@ -348,6 +349,21 @@ Rgb dist2(const Exec& ex, const V& x, const V& y) {
       s2 += d2 * d2;
     }
     return Rgb{s0, s1, s2};
+  });
+}
+
+// max_i |x_ic - y_ic| per channel (y = nullptr: max_i |x_ic|), for the ∞-norm stopping rules.
+template <class Exec, class V>
+Rgb max_abs_diff(const Exec& ex, const V& x, const V* y) {
+  return ex.reduce_max(x.size(), [&](size_t i0, size_t i1) {
+    Rgb m{0, 0, 0};
+    for (size_t i = i0; i < i1; ++i)
+      for (int c = 0; c < V::kChannels; ++c) {
+        const double d = std::abs(double(x(i, c)) - (y ? double((*y)(i, c)) : 0.0));
+        if (std::isnan(d) || d > m[c]) m[c] = d;
+      }
+    if constexpr (V::kChannels == 1) m[1] = m[2] = m[0];
+    return m;
   });
 }
 

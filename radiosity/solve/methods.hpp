@@ -12,8 +12,8 @@
 namespace radiosity {
 
 // Vector slots each method needs; slot 0 holds B0 on entry.
-inline constexpr int kJacobiVectors = 2;
-inline constexpr int kBicgstabVectors = 7;
+inline constexpr int kJacobiVectors = 2;  // also Gauss-Seidel and SOR
+inline constexpr int kBicgstabVectors = 8;
 
 struct MethodRun {
   long iterations = 0;
@@ -22,16 +22,21 @@ struct MethodRun {
   long matrix_passes = 0;
   int answer = 0;         // the slot that holds the B to return
   double callback_s = 0;  // time spent fetching B for the callback and in it
+  std::vector<IterateNorms> history;  // cfg.history
+  Rgb r0_2{0, 0, 0};
 };
 
-// Jacobi, b_k = e + ρ ⊙ F b_{k-1}: cfg.steps steps exactly (RRV), or until every channel's residual <= cfg.tol;
-// either way it stops early, status nonfinite or divergent (divergence.hpp), when the numbers go wrong.
+// Jacobi (b_k = e + ρ ⊙ F b_{k-1}), Gauss-Seidel and SOR (Kernels::sor_sweep) share one loop (stationary.cpp):
+// b_k from b_{k-1} by one pass over F, which also gives the residual of b_{k-1}. cfg.steps steps exactly (RRV), or
+// until the stopping rule is met; either way it stops early, status nonfinite or divergent (divergence.hpp), when
+// the numbers go wrong. e2 = ‖e‖² per channel.
 template <class T>
-MethodRun jacobi(Kernels<T>& k, const Rgb& scale, const SolveConfig& cfg, const IterationCallback& callback);
+MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const IterationCallback& callback);
 
-// BiCG-STAB (van der Vorst 1992) on each channel, until every channel's residual <= cfg.tol.
+// BiCG-STAB (van der Vorst 1992) on each channel, until the stopping rule is met (a full iteration, two
+// products, counts one).
 template <class T>
-MethodRun bicgstab(Kernels<T>& k, const Rgb& scale, const SolveConfig& cfg, const IterationCallback& callback);
+MethodRun bicgstab(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const IterationCallback& callback);
 
 // Hands B_k to the caller's callback and keeps the time that took out of the solve time.
 template <class T>

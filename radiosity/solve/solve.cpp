@@ -16,16 +16,16 @@ template <class T>
 SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConfig& cfg,
                        const IterationCallback& callback) {
   SolveResult res;
-  const bool jac = cfg.method == "jacobi";
+  const bool krylov = cfg.method == "bicgstab";
   hpcgi::Timer t;
-  auto k = make(sys, cfg, jac ? kJacobiVectors : kBicgstabVectors);
+  auto k = make(sys, cfg, krylov ? kBicgstabVectors : kJacobiVectors);
   k->upload(0, sys.initial);
   k->settled();
   res.setup_s = t.seconds();
 
   t.reset();
-  const Rgb scale = residual_scale(sys);
-  const MethodRun run = jac ? jacobi<T>(*k, scale, cfg, callback) : bicgstab<T>(*k, scale, cfg, callback);
+  const Rgb e2 = emission_norm2(sys);
+  MethodRun run = krylov ? bicgstab<T>(*k, e2, cfg, callback) : stationary<T>(*k, e2, cfg, callback);
   k->settled();
   res.solve_s = t.seconds() - run.callback_s;
 
@@ -37,6 +37,9 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
   res.status = run.status;
   res.detail = run.detail;
   res.matrix_passes = run.matrix_passes;
+  res.history = std::move(run.history);
+  res.e2 = e2;
+  res.r0_2 = run.r0_2;
   res.matrix_bytes = k->matrix_bytes();
   res.threads = k->threads();
   res.channels = k->channels();
@@ -100,10 +103,11 @@ const std::vector<SolveBackend>& solve_backends() {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
        {"jacobi"}, {"aos"}, {"float"}, false, true, "", run_original},
       {"serial", "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread",
-       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+       {"jacobi", "bicgstab", "gauss-seidel", "sor"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
        run_kernels<make_serial<float>, make_serial<double>>, true, true},
-      {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines",
-       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+      {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
+                 "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)",
+       {"jacobi", "bicgstab", "gauss-seidel", "sor"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
        {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_cuda)},
@@ -150,12 +154,22 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
                             to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
                             " read any storage)");
   }
-  check_choice("method", cfg.method, {"jacobi", "bicgstab"}, *b, b->methods);
+  check_choice("method", cfg.method, {"jacobi", "bicgstab", "gauss-seidel", "sor"}, *b, b->methods);
   check_choice("layout", cfg.layout, {"aos", "soa"}, *b, b->layouts);
   check_choice("precision", cfg.precision, {"float", "double"}, *b, b->precisions);
   if (cfg.steps < 0) throw hpcgi::UsageError("steps must be >= 0 (0: stop on the tolerance)");
-  if (cfg.steps > 0 && cfg.method != "jacobi")
-    throw hpcgi::UsageError("a fixed step count is for jacobi; " + cfg.method + " stops on the tolerance (steps = 0)");
+  if (cfg.steps > 0 && cfg.method == "bicgstab")
+    throw hpcgi::UsageError("a fixed step count is for jacobi, gauss-seidel and sor; bicgstab stops on the tolerance "
+                            "(steps = 0)");
+  parse_stop_rule(cfg.stop);  // throws for an unknown rule
+  if (cfg.start != "rrv" && cfg.start != "zero" && cfg.start != "emission")
+    throw hpcgi::UsageError("start must be rrv, zero or emission, got '" + cfg.start + "'");
+  if (!(cfg.omega > 0 && cfg.omega < 2))
+    throw hpcgi::UsageError("omega must lie in (0, 2) (SOR diverges outside), got " + std::to_string(cfg.omega));
+  if (cfg.omega != 1 && cfg.method != "sor")
+    throw hpcgi::UsageError("omega is for method sor (gauss-seidel is sor with omega 1)");
+  if (b->name == "original" && (cfg.history || cfg.stop != "residual-e"))
+    throw hpcgi::UsageError("backend 'original' runs RRV's loop as it was: fixed steps, no history, no stopping rule");
   if (cfg.steps == 0) {
     if (!b->tolerance)
       throw hpcgi::UsageError("backend '" + b->name + "' runs a fixed number of steps (RRV has no tolerance); " +
@@ -169,7 +183,17 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
   if (cfg.channels != "auto" && cfg.channels != "3")
     throw hpcgi::UsageError("channels must be auto or 3, got '" + cfg.channels + "'");
-  return b->run(sys, cfg, callback);
+  if (cfg.start == "rrv") return b->run(sys, cfg, callback);
+  System started = sys;  // the same F (not owned), another b_0
+  started.initial = start_vector(sys, cfg.start);
+  return b->run(started, cfg, callback);
+}
+
+std::vector<Rgb> start_vector(const System& sys, const std::string& start) {
+  if (start == "zero") return std::vector<Rgb>(sys.n, Rgb{0, 0, 0});
+  if (start == "emission") return sys.emission;
+  if (start == "rrv") return sys.initial;
+  throw hpcgi::UsageError("start must be rrv, zero or emission, got '" + start + "'");
 }
 
 }  // namespace radiosity

@@ -11,18 +11,23 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/stop_rule.hpp"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity {
 
 struct SolveConfig {
-  std::string method = "jacobi";    // jacobi | bicgstab
+  std::string method = "jacobi";    // jacobi | bicgstab | gauss-seidel | sor
   std::string layout = "aos";       // aos | soa
   std::string backend = "openmp";   // a name from solve_backends()
   std::string precision = "float";  // float | double: the working precision of B and of the sums (F is stored as
                                     //   the System holds it: float32, or 16-bit values widened in the sums)
   long steps = 0;                   // > 0: exactly this many Jacobi steps, no tolerance (RRV's default is 32)
-  double tol = 1e-6;                // steps == 0: stop when every channel's relative residual is <= tol
+  double tol = 1e-6;                // steps == 0: stop when the stopping rule's value is <= tol
+  std::string stop = "residual-e";  // the stopping rule (stop_rule.hpp): ‖e - A b‖ / ‖e‖ per channel by default
+  std::string start = "rrv";        // b_0: rrv (System::initial, RRV's max(radiosity, emission)) | zero | emission
+  bool history = false;             // keep every iterate's norms (SolveResult::history)
+  double omega = 1.0;               // sor: the relaxation factor, in (0, 2); gauss-seidel is sor with omega 1
   long max_iter = 1000;             // steps == 0: give up after this many iterations
   int threads = 0;                  // openmp: 0 = the OpenMP default; the single-threaded backends ignore it
   float ff_threshold = 0;           // original: keep only F_ij > threshold (RRV's ffTreshold); other backends: 0
@@ -45,13 +50,18 @@ const char* to_string(SolveStatus s);
 
 struct SolveResult {
   std::vector<Rgb> B;             // the radiosity the run ends with (double, whatever the working precision)
-  long iterations = 0;            // Jacobi steps or BiCG-STAB iterations that produced B
+  long iterations = 0;            // Jacobi steps, Gauss-Seidel / SOR sweeps or BiCG-STAB iterations (each of two
+                                  //   products) that produced B
   int channels = 3;               // channels solved: 1 for a grey system solved once (B's r, g, b are equal)
   Rgb rel_residual{0, 0, 0};      // relative_residual(system, B): recomputed in double, same for every backend
   SolveStatus status = SolveStatus::max_iter;
   std::string detail;             // why a breakdown or nonfinite status, empty otherwise
-  long matrix_passes = 0;         // passes over the matrix during the solve (Jacobi 1/step, BiCG-STAB 2/iteration
-                                  //   plus 1 per residual recomputation)
+  long matrix_passes = 0;         // passes over the matrix during the solve (Jacobi 1/step, Gauss-Seidel 1/sweep,
+                                  //   BiCG-STAB 2/iteration plus 1 per residual recomputation)
+  // cfg.history: the norms of b_0, b_1, ... as the method measured them (BiCG-STAB: the recurrence's residual),
+  // with ‖e‖² and ‖r_0‖² per channel, from which any stopping rule's decision can be replayed.
+  std::vector<IterateNorms> history;
+  Rgb e2{0, 0, 0}, r0_2{0, 0, 0};
   double matrix_bytes = 0;        // bytes one pass reads: 4n² dense float32 (the rows computed), the kept values
                                   //   with their columns for csr, the (pointer, float) pairs for `original`
   int threads = 1;
@@ -93,6 +103,9 @@ const std::vector<SolveBackend>& solve_backends();
 
 // Whether this run solves one channel: cfg.channels is auto, the system is grey and the backend can.
 bool solve_one_channel(const System& sys, const SolveConfig& cfg);
+
+// The starting vector cfg.start names: sys.initial (rrv), zeros, or the emission.
+std::vector<Rgb> start_vector(const System& sys, const std::string& start);
 
 // Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
 // precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the

@@ -63,10 +63,15 @@ void check_system(const System& sys) {
   check(sys.initial, "initial radiosity");
 }
 
-Rgb residual_scale(const System& sys) {
+Rgb emission_norm2(const System& sys) {
   Rgb e2{0, 0, 0};
   for (const Rgb& e : sys.emission)
     for (int c = 0; c < 3; ++c) e2[c] += e[c] * e[c];
+  return e2;
+}
+
+Rgb residual_scale(const System& sys) {
+  const Rgb e2 = emission_norm2(sys);
   Rgb scale;
   for (int c = 0; c < 3; ++c) scale[c] = e2[c] == 0 ? 1.0 : std::sqrt(e2[c]);  // a NaN in E stays NaN
   return scale;

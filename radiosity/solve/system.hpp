@@ -46,6 +46,9 @@ bool is_grey(const System& sys);
 // a NaN in the input is the solver's to report (status nonfinite), not a usage error.
 void check_system(const System& sys);
 
+// ‖e_c‖₂² per channel.
+Rgb emission_norm2(const System& sys);
+
 // The denominator of the relative residual per channel: ‖e_c‖₂, or 1 where e_c = 0. A channel without emission
 // has the solution b_c = 0 and no scale of its own, so its residual is measured absolutely: ‖A_c b_c‖₂ ≤ tol.
 Rgb residual_scale(const System& sys);

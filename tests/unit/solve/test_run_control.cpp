@@ -151,7 +151,7 @@ TEST(RunControl, UnsupportedCombinationsAreRefused) {
   refused(config("original", "jacobi", 0), "fixed number of steps");
   refused(config("serial", "bicgstab", 32), "fixed step count is for jacobi");
   refused(config("cuda-aos", "jacobi", 32), "unknown solver backend 'cuda-aos'");
-  refused(config("serial", "gauss-seidel", 0), "unknown method 'gauss-seidel'");
+  refused(config("serial", "conjugate-gradient", 0), "unknown method 'conjugate-gradient'");
   c = config("serial", "jacobi", 0);
   c.layout = "aosoa";
   refused(c, "unknown layout");

@@ -1,0 +1,107 @@
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "radiosity/solve/divergence.hpp"
+#include "radiosity/solve/methods.hpp"
+
+namespace radiosity {
+
+template <class T>
+MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const IterationCallback& callback) {
+  constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
+  MethodRun run;
+  Snapshots<T> snapshots(k, callback);
+  const StopRule rule = parse_stop_rule(cfg.stop);
+  const bool fixed = cfg.steps > 0;
+  const bool jacobi = cfg.method == "jacobi";
+  const double omega = cfg.method == "sor" ? cfg.omega : 1.0;
+  // The O(n) norms beyond the step's own: for the history, or for a rule that needs them.
+  const bool norms_b = cfg.history || (!fixed && rule.needs_b());
+  const bool norms_inf = cfg.history || (!fixed && rule.base == StopRule::Base::step_inf);
+  // A residual rule checks b_{step-1} at step `step` (its residual comes with the step), so with a tolerance step
+  // max_iter + 1 is only computed as the check of b_max_iter; a step rule checks b_step itself.
+  const long last = fixed ? cfg.steps : cfg.max_iter + (rule.on_step() ? 0 : 1);
+  run.status = fixed ? SolveStatus::steps_done : SolveStatus::max_iter;
+  Rgb scale;
+  for (int c = 0; c < 3; ++c) scale[c] = e2[c] == 0 ? 1.0 : std::sqrt(e2[c]);
+  const Rgb unknown{kUnknown, kUnknown, kUnknown};
+  auto measure = [&](long iteration, int b, int before) {  // the norms of b_iteration (in slot b; b_{iteration-1} in before)
+    IterateNorms m;
+    m.iteration = iteration;
+    m.res2 = unknown;
+    m.step2 = before < 0 ? unknown : k.dist2(b, before);
+    m.step_inf = before >= 0 && norms_inf ? k.max_abs_diff(b, before) : unknown;
+    m.b2 = norms_b ? k.dot(b, b) : unknown;
+    m.b_inf = norms_inf ? k.max_abs(b) : unknown;
+    return m;
+  };
+  int cur = 0, nxt = 1;
+  IterateNorms prev = measure(0, cur, -1), now;  // b_{step-1} and b_step
+  bool kept_last = false;                        // whether the history holds the newest iterate
+  auto keep = [&](const IterateNorms& m) {
+    if (cfg.history) run.history.push_back(m);
+  };
+  Rgb first{0, 0, 0};  // the residual of b_0, which divergence is measured against
+  for (long step = 1; step <= last; ++step) {
+    // Jacobi: b_step - b_{step-1} = e - A b_{step-1}, so the residual of the previous iterate comes with the step
+    // for O(n). Gauss-Seidel and SOR: the sweep sums every row against b_{step-1} as well and returns its residual.
+    // Either way a residual rule's answer is b_{step-1}, one step short of the newest, whose step was its check.
+    Rgb res2;
+    if (jacobi) {
+      k.matvec(nxt, cur, 0, 1, 1);  // b_step = e + ρ ⊙ F b_{step-1}
+      now = measure(step, nxt, cur);
+      res2 = now.step2;
+    } else {
+      res2 = k.sor_sweep(nxt, cur, omega);
+      now = measure(step, nxt, cur);
+    }
+    ++run.matrix_passes;
+    prev.res2 = res2;
+    if (step == 1) run.r0_2 = res2;
+    keep(prev);
+    Rgb res;
+    bool finite = true;
+    for (int c = 0; c < 3; ++c) {
+      res[c] = std::sqrt(res2[c]) / scale[c];
+      finite = finite && std::isfinite(res[c]) && std::isfinite(now.step2[c]);
+    }
+    if (step == 1) first = res;
+    const std::string diverged = finite ? divergence(first, res) : "";
+    if (!finite || !diverged.empty()) {
+      run.status = finite ? SolveStatus::divergent : SolveStatus::nonfinite;
+      run.detail = cfg.method + ": " + (finite ? diverged : "non-finite radiosity or residual") + " at step " +
+                   std::to_string(step);
+      run.iterations = step;
+      run.answer = nxt;
+      keep(now);
+      kept_last = true;
+      break;
+    }
+    // A residual rule decides on b_{step-1}, a step rule on b_step.
+    const IterateNorms& judged = rule.on_step() ? now : prev;
+    const bool met = !fixed && rule.value(judged, e2, run.r0_2) <= cfg.tol;
+    if (!fixed && (met || step == last)) {
+      run.status = met ? SolveStatus::converged : SolveStatus::max_iter;
+      run.iterations = rule.on_step() ? step : step - 1;
+      run.answer = rule.on_step() ? nxt : cur;
+      keep(now);  // a residual rule: b_step, its residual unknown; the history says how far the run went
+      kept_last = true;
+      break;
+    }
+    std::swap(cur, nxt);
+    run.iterations = step;
+    run.answer = cur;
+    prev = now;
+    snapshots(step, cur);
+  }
+  if (!kept_last) keep(prev);  // fixed steps: the last iterate, its residual unknown
+  run.callback_s = snapshots.seconds();
+  return run;
+}
+
+template MethodRun stationary(Kernels<float>&, const Rgb&, const SolveConfig&, const IterationCallback&);
+template MethodRun stationary(Kernels<double>&, const Rgb&, const SolveConfig&, const IterationCallback&);
+
+}  // namespace radiosity
