@@ -51,6 +51,7 @@ MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosi
 MOD_dist       := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/dist/*.cpp))
 MOD_render     := $(wildcard radiosity/render/*.cpp)
 MOD_app        := $(wildcard radiosity/app/*.cpp)
+MOD_relight    := $(wildcard radiosity/relight/*.cpp)
 SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
@@ -59,6 +60,7 @@ SUITE_common     := common
 SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
+SUITE_relight    := common scene formfactor solve relight
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
@@ -126,7 +128,7 @@ $(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist relight)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
