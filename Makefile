@@ -110,6 +110,11 @@ $(BUILD)/gen/build_info.inc: FORCE
 	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
 	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 $(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc
+# bin/radiosity web's page template, built into the program as a raw string literal.
+$(BUILD)/gen/web_page.inc: radiosity/web/page.html
+	@mkdir -p $(@D)
+	@{ printf 'R"HPCGIPAGE('; cat $<; printf ')HPCGIPAGE"\n'; } > $@
+$(BUILD)/radiosity/app/web_cmd.cpp.o: $(BUILD)/gen/web_page.inc
 unit: $(UNIT_TESTS)
 
 $(BUILD)/%.cpp.o: %.cpp

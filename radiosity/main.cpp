@@ -5,6 +5,7 @@
 //   solve        solve B = E + ρ ⊙ F B with a method, layout, backend and precision; write the scene, pictures and
 //                a record; check the answer against the serial float64 result (--backend mpi: on MPI ranks)
 //   relight      frames of new lights (from the light basis) and reflectivities (warm solves) over fixed form factors
+//   web          one self-contained HTML page that relights the scene from its light basis in WebGL
 #include <omp.h>
 
 #include <cstdio>
@@ -37,6 +38,8 @@ int main(int argc, char** argv) {
   radiosity::app::add_solve(app, solve);
   radiosity::app::RelightArgs relight;
   radiosity::app::add_relight(app, relight);
+  radiosity::app::WebArgs web;
+  radiosity::app::add_web(app, web);
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
@@ -67,6 +70,7 @@ int main(int argc, char** argv) {
     if (ff_cmd) return radiosity::app::run_formfactors(ff);
     if (solve_cmd) return radiosity::app::run_solve(solve);
     if (app.got_subcommand("relight")) return radiosity::app::run_relight(relight);
+    if (app.got_subcommand("web")) return radiosity::app::run_web(web);
     return radiosity::app::run_info(info);
   });
 }
