@@ -77,7 +77,7 @@ int run_relight(const RelightArgs& a);
 
 // web (web_cmd.cpp): one self-contained HTML page that relights the scene from its light basis with WebGL.
 struct WebArgs : SceneArgs {
-  std::string ff, basis, out;
+  std::string ff, basis, out, view = "inside";
   double basis_tol = 1e-7;
   double exposure = 1;
 };

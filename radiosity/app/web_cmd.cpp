@@ -2,6 +2,7 @@
 // the scene from its light basis with WebGL: the mesh, the smooth-shading weights of every corner
 // (render/vertex_colours.hpp) and the basis inline as base64, no network.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -14,6 +15,7 @@
 #include "radiosity/app/commands.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/relight/basis_file.hpp"
+#include "radiosity/render/camera.hpp"
 #include "radiosity/render/render.hpp"
 #include "radiosity/render/vertex_colours.hpp"
 
@@ -71,6 +73,10 @@ void add_web(CLI::App& app, WebArgs& a) {
   cmd->add_option("--basis", a.basis, "light-basis file of `relight --basis`: read when it exists, else solved and written");
   cmd->add_option("--basis-tol", a.basis_tol, "relative residual of every light's solve")
       ->check(hpcgi::positive_finite())->capture_default_str();
+  cmd->add_option("--view", a.view,
+                  "the page's camera, orbiting about the vertical through its target: inside | auto | front | top | "
+                  "ex,ey,ez:tx,ty,tz[:fov]")
+      ->capture_default_str();
   cmd->add_option("--exposure", a.exposure, "initial exposure of the page (its slider moves it)")
       ->check(hpcgi::positive_finite())->capture_default_str();
 }
@@ -102,8 +108,8 @@ int run_web(const WebArgs& a) {
       hi = {std::max(hi.x, v.x), std::max(hi.y, v.y), std::max(hi.z, v.z)};
     }
   const VertexWeights w = smooth_vertex_weights(m, RenderOptions{}.crease_deg);
-  // An orbit inside the bounding box (RRV's scenes are rooms), looking at its centre from a little above.
-  const Vec3 c = (lo + hi) * 0.5, half = (hi - lo) * 0.5;
+  // The page orbits the camera about the vertical through its target, at the eye's distance and height.
+  const Camera cam = parse_view(a.view, m);
   const double diag = (hi - lo).norm();
   nlohmann::json light_names = nlohmann::json::array();
   for (const std::string& l : basis.lights) light_names.push_back(l);
@@ -112,11 +118,11 @@ int run_web(const WebArgs& a) {
       {"lights", light_names},
       {"probe", std::min(n, kProbePatches)},
       {"exposure", a.exposure},
-      {"camera", {{"centre", {c.x, c.y, c.z}},
-                  {"target", {c.x, c.y - 0.2 * half.y, c.z}},
-                  {"radius", 0.85 * std::min(half.x, half.z)},
-                  {"height", 0.3 * half.y},
-                  {"fov", 75},
+      {"camera", {{"target", {cam.target.x, cam.target.y, cam.target.z}},
+                  {"radius", std::hypot(cam.eye.x - cam.target.x, cam.eye.z - cam.target.z)},
+                  {"height", cam.eye.y},
+                  {"angle", std::atan2(cam.eye.x - cam.target.x, cam.eye.z - cam.target.z)},
+                  {"fov", cam.fov_deg},
                   {"near", 0.005 * diag},
                   {"far", 3 * diag}}},
       {"positions", base64(positions)},
