@@ -12,6 +12,7 @@ DEBIAN_PACKAGES=(
   openmpi-bin libopenmpi-dev
   slurmctld slurmd slurm-client munge
   clang libclang-rt-dev  # make fuzz: libFuzzer and clang's sanitizers
+  chromium  # tests/integration/test_relight.py: bin/radiosity web's page in headless Chromium
 )
 VENV=${VENV:-.venv}
 PYTHON=${PYTHON:-python3}
