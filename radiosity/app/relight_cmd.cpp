@@ -182,7 +182,7 @@ int run_relight(const RelightArgs& a) {
   // Every frame is read and checked before anything is computed or written.
   const std::vector<Frame> frames = a.bench_rhs > 0       ? std::vector<Frame>{}
                                     : a.random_frames > 0 ? random_frames(size_t(a.random_frames), uint64_t(a.seed), named)
-                                                          : read_frames(a.frames, named, a.load.allow_reflectivity_ge_1);
+                                                          : read_frames(a.frames, m, named, a.load.allow_reflectivity_ge_1);
   const Camera cam = parse_view(a.view, m);
   const double n2 = double(n) * double(n);
   hpcgi::require_host_memory("relighting " + std::to_string(n) + " patches (dense float32 form factors and a 16-bit "

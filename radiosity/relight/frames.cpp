@@ -1,5 +1,6 @@
 #include "radiosity/relight/frames.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -54,8 +55,10 @@ Rgb triple(const nlohmann::json& v, const std::string& what) {
 
 }  // namespace
 
-std::vector<Frame> read_frames(const std::string& path, const std::vector<NamedEntity>& named,
+std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
                                bool allow_reflectivity_ge_1) {
+  std::vector<Rgb> scene_rho(m.size());
+  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
   std::ifstream f(path);
   if (!f) throw hpcgi::UsageError(path + ": cannot open the frames file");
   std::stringstream ss;
@@ -89,6 +92,7 @@ std::vector<Frame> read_frames(const std::string& path, const std::vector<NamedE
   Frame state;
   state.lights.assign(lights.size(), LightSetting{});
   state.reflectivity.assign(named.size(), std::nullopt);
+  state.reflectivity_scale.assign(named.size(), 1.0);
   std::vector<Frame> frames;
   const nlohmann::json& list = doc["frames"];
   for (size_t k = 0; k < list.size(); ++k) {
@@ -117,12 +121,29 @@ std::vector<Frame> read_frames(const std::string& path, const std::vector<NamedE
             const auto it = entity_index.find(name);
             if (it == entity_index.end())
               throw hpcgi::UsageError("unknown entity '" + name + "' (entities: " + name_list(named) + ")");
-            const Rgb rho = triple(v, "reflectivity of '" + name + "'");
+            const std::string what = "reflectivity of '" + name + "'";
+            const NamedEntity& ent = named[it->second];
+            if (v.is_object()) {
+              if (v.size() != 1 || !v.contains("scale"))
+                throw hpcgi::UsageError(what + " must be [r, g, b] or {\"scale\": f}, got " + v.dump());
+              const double f = number(v["scale"], what + " scale");
+              double top = 0;
+              for (size_t i : ent.patches)
+                for (int c = 0; c < 3; ++c) top = std::max(top, scene_rho[i][c] * f);
+              if (top >= 1 && !allow_reflectivity_ge_1)
+                throw hpcgi::UsageError(what + " times " + v["scale"].dump() + " is >= 1 in a channel of a patch (" +
+                                        std::to_string(top) + "); give --allow-reflectivity-ge-1 to accept it");
+              state.reflectivity[it->second] = std::nullopt;
+              state.reflectivity_scale[it->second] = f;
+              continue;
+            }
+            const Rgb rho = triple(v, what);
             for (int c = 0; c < 3; ++c)
               if (rho[c] >= 1 && !allow_reflectivity_ge_1)
-                throw hpcgi::UsageError("reflectivity of '" + name + "' is >= 1 in a channel (" + v.dump() +
+                throw hpcgi::UsageError(what + " is >= 1 in a channel (" + v.dump() +
                                         "); give --allow-reflectivity-ge-1 to accept it");
             state.reflectivity[it->second] = rho;
+            state.reflectivity_scale[it->second] = 1;
           }
         } else {
           throw hpcgi::UsageError("unknown key '" + key + "' (a frame has lights, reflectivity)");
@@ -133,8 +154,9 @@ std::vector<Frame> read_frames(const std::string& path, const std::vector<NamedE
     }
     state.scene_reflectivity = true;
     for (size_t e = 0; e < named.size(); ++e)
-      state.scene_reflectivity &= !state.reflectivity[e] ||
-                                  (named[e].uniform_reflectivity && *state.reflectivity[e] == named[e].reflectivity);
+      state.scene_reflectivity &= state.reflectivity_scale[e] == 1 &&
+                                  (!state.reflectivity[e] ||
+                                   (named[e].uniform_reflectivity && *state.reflectivity[e] == named[e].reflectivity));
     frames.push_back(state);
   }
   if (frames.empty()) throw hpcgi::UsageError(path + ": no frames");
@@ -153,6 +175,7 @@ std::vector<Frame> random_frames(size_t count, uint64_t seed, const std::vector<
   std::vector<Frame> frames(count);
   for (Frame& f : frames) {
     f.reflectivity.assign(named.size(), std::nullopt);
+    f.reflectivity_scale.assign(named.size(), 1.0);
     f.lights.resize(k);
     for (LightSetting& l : f.lights) {
       l.intensity = 2 * uniform();
@@ -168,8 +191,10 @@ Mesh frame_mesh(const Mesh& m, const std::vector<NamedEntity>& named, const Fram
   const std::vector<Rgb> e = frame_emission(m, lights, f.lights);
   for (size_t i = 0; i < m.size(); ++i) out.patches[i].emission = e[i];
   for (size_t k = 0; k < named.size(); ++k)
-    if (f.reflectivity[k])
-      for (size_t i : named[k].patches) out.patches[i].reflectivity = *f.reflectivity[k];
+    for (size_t i : named[k].patches) {
+      if (f.reflectivity[k]) out.patches[i].reflectivity = *f.reflectivity[k];
+      for (double& c : out.patches[i].reflectivity) c *= f.reflectivity_scale[k];
+    }
   return out;
 }
 

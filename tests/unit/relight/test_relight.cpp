@@ -225,7 +225,7 @@ TEST(Frames, ReadsStateForwardAndRefusesBadFrames) {
   write(path, R"({"frames": [{"lights": {"obj.2": {"intensity": 0.5}}},
                              {"lights": {"obj.1": {"rgb": [1, 0, 0.5]}}, "reflectivity": {"obj.3": [0.2, 0.2, 0.2]}},
                              {}]})");
-  const std::vector<Frame> f = read_frames(path, named, false);
+  const std::vector<Frame> f = read_frames(path, s.m, named, false);
   ASSERT_EQ(f.size(), 3u);
   EXPECT_EQ(f[0].lights[1].intensity, 0.5);
   EXPECT_TRUE(f[0].scene_reflectivity);
@@ -242,15 +242,25 @@ TEST(Frames, ReadsStateForwardAndRefusesBadFrames) {
       {R"({"frames": [{"reflectivity": {"nope": [0, 0, 0]}}]})", "unknown entity 'nope'"},
       {R"({"frames": [{"lights": {"obj.1": {"rgb": [1, 1]}}}]})", "three numbers"},
       {R"({"frames": [{"colour": 1}]})", "unknown key 'colour'"},
+      {R"({"frames": [{"reflectivity": {"obj.3": {"scale": 1.7}}}]})", "times 1.7 is >= 1"},
+      {R"({"frames": [{"reflectivity": {"obj.3": {"factor": 0.5}}}]})", "[r, g, b] or {\"scale\": f}"},
       {R"([1, 2])", "one object"},
       {R"({"frames": []})", "no frames"},
   };
   for (const auto& [text, want] : bad) {
     write(path, text);
-    const std::string why = refusal([&] { read_frames(path, named, false); });
+    const std::string why = refusal([&] { read_frames(path, s.m, named, false); });
     EXPECT_NE(why.find(want), std::string::npos) << text << " -> " << why;
     EXPECT_EQ(why.rfind(path, 0), 0u) << why;  // the message starts with the file
   }
   write(path, R"({"frames": [{"reflectivity": {"obj.3": [1, 0, 0]}}]})");
-  EXPECT_EQ(read_frames(path, named, true).size(), 1u);  // with --allow-reflectivity-ge-1
+  EXPECT_EQ(read_frames(path, s.m, named, true).size(), 1u);  // with --allow-reflectivity-ge-1
+  // A scale multiplies each patch's own reflectivity; scale 1 is the scene again (the basis serves it).
+  write(path, R"({"frames": [{"reflectivity": {"obj.3": {"scale": 0.5}}}, {"reflectivity": {"obj.3": {"scale": 1}}}]})");
+  const std::vector<Frame> g = read_frames(path, s.m, named, false);
+  EXPECT_FALSE(g[0].scene_reflectivity);
+  EXPECT_TRUE(g[1].scene_reflectivity);
+  const Mesh fm = frame_mesh(s.m, named, g[0]);
+  for (size_t i : named[2].patches)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(fm.patches[i].reflectivity[c], 0.5 * s.m.patches[i].reflectivity[c]);
 }
