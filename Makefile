@@ -74,7 +74,7 @@ RUNNER ?= local
 # experiments (issue 9) about 70 seconds.
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
                accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
-               mpi-radiosity mpi-large
+               mpi-radiosity mpi-large relight
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))

@@ -36,6 +36,7 @@ def main():
         made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset)}
+        made.update(__import__("analysis.relight", fromlist=["write_all"]).write_all(a.preset))  # issue 20
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
         return 0
