@@ -304,6 +304,9 @@ void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int3
 // set the pace. 16-bit values are widened once per chunk into a float buffer that all k sums read. The chunked sums
 // round differently from matvec_rows (not the same bits as k single products); the same for any k and threads.
 inline constexpr size_t kMultiChunk = 512;
+// 16-bit values are widened into a float buffer once per chunk from this many right-hand sides on; below it sums4
+// widens them as it reads (the solvers' product, whose F traffic is half float32's).
+inline constexpr size_t kWidenFrom = 4;
 
 template <class Val, class T>
 [[gnu::noinline]] void multi_matvec_rows(const typename Val::stored* F, size_t n, const int32_t* rows,
@@ -313,7 +316,7 @@ template <class Val, class T>
   static thread_local std::vector<float> wide;  // 16-bit values: the four rows' chunk as float
   acc.assign(k * kGroup * 3, T(0));
   constexpr bool as_float = std::is_same_v<Val, Float32Values>;
-  if (!as_float) wide.resize(kGroup * kMultiChunk);
+  if (!as_float && k >= kWidenFrom) wide.resize(kGroup * kMultiChunk);
   auto row = [&](size_t q) { return rows ? size_t(rows[q]) : q; };
   for (size_t g = k0; g < k1; g += kGroup) {
     size_t i[kGroup];
@@ -322,20 +325,26 @@ template <class Val, class T>
     std::fill(acc.begin(), acc.end(), T(0));
     for (size_t j0 = 0; j0 < n; j0 += kMultiChunk) {
       const size_t m = std::min(kMultiChunk, n - j0);
-      const float* Fr[kGroup];
-      if constexpr (as_float) {
-        for (size_t r = 0; r < kGroup; ++r) Fr[r] = F + i[r] * n + j0;
-      } else {
-        for (size_t r = 0; r < kGroup; ++r) {
-          const typename Val::stored* src = F + i[r] * n + j0;
-          float* dst = wide.data() + r * kMultiChunk;
-          size_t j = 0;
-#ifdef HPCGI_AVX2_SUMS
-          for (; j + 8 <= m; j += 8) _mm256_storeu_ps(dst + j, Val::load8(src + j));
-#endif
-          for (; j < m; ++j) dst[j] = Val::get(src, j);
-          Fr[r] = dst;
+      if (as_float || k < kWidenFrom) {
+        // float32, or 16-bit values widened in the sums (sums4's load8) again for every right-hand side
+        const typename Val::stored* const Fs[kGroup] = {F + i[0] * n + j0, F + i[1] * n + j0, F + i[2] * n + j0,
+                                                         F + i[3] * n + j0};
+        for (size_t q = 0; q < k; ++q) {
+          T (&s)[kGroup][3] = *reinterpret_cast<T(*)[kGroup][3]>(acc.data() + q * kGroup * 3);
+          sums4<Val, 3>(Fs, X[q].data(0) + j0, X[q].data(1) + j0, X[q].data(2) + j0, m, s);
         }
+        continue;
+      }
+      const float* Fr[kGroup];
+      for (size_t r = 0; r < kGroup; ++r) {
+        const typename Val::stored* src = F + i[r] * n + j0;
+        float* dst = wide.data() + r * kMultiChunk;
+        size_t j = 0;
+#ifdef HPCGI_AVX2_SUMS
+        for (; j + 8 <= m; j += 8) _mm256_storeu_ps(dst + j, Val::load8(src + j));
+#endif
+        for (; j < m; ++j) dst[j] = Val::get(src, j);
+        Fr[r] = dst;
       }
       const float* const Fg[kGroup] = {Fr[0], Fr[1], Fr[2], Fr[3]};
       for (size_t q = 0; q < k; ++q) {

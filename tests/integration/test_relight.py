@@ -198,3 +198,14 @@ def test_web_page_relights_offline_like_relight(scene2):
         want = np.array(res["per_frame"][k]["radiosity"])
         assert relit[k].shape == want.shape == (16, 3)
         assert np.max(np.abs(relit[k] - want)) <= 1e-5 * np.max(np.abs(want)), (relit[k], want)
+
+
+def test_png_frames_render_each_frame(scene2):
+    d, ff, basis = scene2
+    frames = d / "dim.json"
+    frames.write_text(json.dumps({"frames": [{"lights": {"light.1": {"intensity": x, "rgb": [1, x, x]}}}
+                                             for x in (1.0, 0.5, 0.0)]}))
+    record(relight(ff, "--frames", frames, "--png-frames", d / "dim", "--size", "64x48"))
+    pngs = [d / f"dim_{k:04d}.png" for k in range(3)]
+    assert all(p.exists() for p in pngs)
+    assert len({p.read_bytes() for p in pngs}) == 3
