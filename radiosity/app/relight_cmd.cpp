@@ -52,7 +52,7 @@ System frame_system(const Mesh& fm, const float* F) {
 }
 
 // The product with k right-hand sides, timed (make bench): passes products after one untimed warm-up.
-int bench_product(const RelightArgs& a, const Mesh& m, const float* F32, const FFMatrixView& view, nlohmann::json& rec) {
+int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view, nlohmann::json& rec) {
   const size_t n = m.size(), k = size_t(a.bench_rhs);
   const OpenMPExec ex(a.threads);
   std::vector<Rgb> rho_host(n), e(n);
@@ -87,7 +87,6 @@ int bench_product(const RelightArgs& a, const Mesh& m, const float* F32, const F
       if (p > 0) single_ms.push_back(t.seconds() * 1e3);
     }
   }
-  (void)F32;
   const double med = percentile(ms, 50), bytes = double(n) * double(n) * double(value_bytes(view.values));
   rec["result"] = {{"rhs", k},
                    {"product_ms_median", med},
@@ -175,6 +174,16 @@ int run_relight(const RelightArgs& a) {
       throw hpcgi::UsageError("--size must be WIDTHxHEIGHT with 1..16384 pixels each, got '" + a.size + "'");
   }
   const FFValues values = parse_ff_values(a.ff_precision);
+  // The reflectivity frames' backend is checked before anything is read or written (solve() checks the rest).
+  const SolveBackend* backend = nullptr;
+  for (const SolveBackend& b : solve_backends())
+    if (b.name == a.cfg.backend) backend = &b;
+  if (!backend) throw hpcgi::UsageError("unknown solver backend '" + a.cfg.backend + "'");
+  if (!backend->built)
+    throw hpcgi::UsageError("solver backend '" + backend->name + "' is not available: " + backend->why_not);
+  if (!backend->any_storage && values != FFValues::float32)
+    throw hpcgi::UsageError("backend '" + backend->name + "' reads dense float32 form factors only: --ff-precision "
+                            "float16|bfloat16 runs on serial and openmp");
   double load_s = 0;
   const Mesh m = load_scene(a, &load_s);
   const size_t n = m.size();
@@ -210,7 +219,7 @@ int run_relight(const RelightArgs& a) {
   if (a.bench_rhs > 0) {
     rec["params"]["bench_rhs"] = a.bench_rhs;
     rec["params"]["passes"] = a.passes;
-    bench_product(a, m, ff.values.data(), frame_view, rec);
+    bench_product(a, m, frame_view, rec);
     rec["times_s"] = {{"load", load_s}, {"ff_load", ff_load_s}, {"total", total.seconds()}};
     if (a.json) std::cout << rec.dump() << std::endl;
     if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
