@@ -92,16 +92,18 @@ def bench_table(preset):
         return None, None
     t = b.groupby(["params.ff_precision", "params.bench_rhs"]).agg(
         product_ms=("result.product_ms_median", "median"), single_ms=("result.single_product_ms_median", "median"),
-        gbps=("result.bandwidth_GBps", "median")).reset_index()
-    t.columns = ["ff_precision", "k", "product_ms", "single_product_ms", "F_GBps"]
+        gbps=("result.bandwidth_GBps", "median"),
+        alt=("result.over_k1_alternating", "median")).reset_index()
+    t.columns = ["ff_precision", "k", "product_ms", "single_product_ms", "F_GBps", "over_k1_alternating"]
     t["k"] = t["k"].astype(int)
     t["per_rhs_ms"] = t["product_ms"] / t["k"]
     one = t[t["k"] == 1].set_index("ff_precision")["product_ms"]
     t["over_k1"] = [r.product_ms / one.get(r.ff_precision, np.nan) for r in t.itertuples()]
     notes = ["One pass over room3's F for k right-hand sides of three channels each (linalg.hpp's multi_affine_matvec), "
              "median of 10 timed products; single_product_ms: the solvers' one-right-hand-side product (affine_matvec) "
-             "on the same F beside it; over_k1: the k-product's time over its k = 1 time. The issue asks for "
-             "over_k1 <= 2.5 at k = 8."]
+             "on the same F beside it; over_k1: the k-product's time over the k = 1 case's (separate runs); "
+             "over_k1_alternating: over the k = 1 product timed in turns with it in the same run (the ratio that holds "
+             "on a shared machine). The issue asks for <= 2.5 at k = 8."]
     text = write("bench_relight", preset, f"Product with k right-hand sides, room3 ({preset})", t, notes)
     return text, t
 
