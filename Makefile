@@ -51,6 +51,7 @@ MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosi
 MOD_dist       := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/dist/*.cpp))
 MOD_render     := $(wildcard radiosity/render/*.cpp)
 MOD_app        := $(wildcard radiosity/app/*.cpp)
+MOD_relight    := $(wildcard radiosity/relight/*.cpp)
 SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
@@ -59,6 +60,7 @@ SUITE_common     := common
 SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
+SUITE_relight    := common scene formfactor solve relight
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
@@ -72,7 +74,7 @@ RUNNER ?= local
 # experiments (issue 9) about 70 seconds; the Table 4.2 audit (issue 21) 2 hemicubes and 154 solves of room3.
 EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
                accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
-               mpi-radiosity mpi-large table42-audit-formfactors table42-audit
+               mpi-radiosity mpi-large table42-audit-formfactors table42-audit relight
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
@@ -110,6 +112,11 @@ $(BUILD)/gen/build_info.inc: FORCE
 	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
 	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 $(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc
+# bin/radiosity web's page template, built into the program as a raw string literal.
+$(BUILD)/gen/web_page.inc: radiosity/web/page.html
+	@mkdir -p $(@D)
+	@{ printf 'R"HPCGIPAGE('; cat $<; printf ')HPCGIPAGE"\n'; } > $@
+$(BUILD)/radiosity/app/web_cmd.cpp.o: $(BUILD)/gen/web_page.inc
 unit: $(UNIT_TESTS)
 
 $(BUILD)/%.cpp.o: %.cpp
@@ -128,7 +135,7 @@ $(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common) $(if $(HAVE_CUD
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist relight)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 

@@ -10,8 +10,8 @@ The machine is --machine, else $MACHINE, else this machine's own label (common/m
 import argparse
 import sys
 
-from analysis import accuracy, audit, figure42, machines, mpi_radiosity, radiosity_tables, records, report, table41, \
-    table42_audit
+from analysis import accuracy, audit, figure42, machines, mpi_radiosity, radiosity_tables, records, relight, report, \
+    table41, table42_audit
 
 
 def main():
@@ -37,6 +37,7 @@ def main():
         made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset), "table42_audit": table42_audit.write(a.preset)}
+        made.update(relight.write_all(a.preset))
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
         return 0

@@ -198,6 +198,7 @@ def write(preset):
             "### Figure 4.2", "", image("figure42", preset, "Figure 4.2"), "",
             *accuracy.report_section(preset, include, image), "",
             *mpi_radiosity.report_section(preset, include, image),
+            *__import__("analysis.relight", fromlist=["report_section"]).report_section(preset, include, image),
             "## Performance: the bandwidth limit and the peers (`make bench`)", "", include("bench", preset)]
     path = report_dir() / f"REPORT-{preset}.md"
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -4,6 +4,8 @@
 //                rank its block of rows, one file written together)
 //   solve        solve B = E + ρ ⊙ F B with a method, layout, backend and precision; write the scene, pictures and
 //                a record; check the answer against the serial float64 result (--backend mpi: on MPI ranks)
+//   relight      frames of new lights (from the light basis) and reflectivities (warm solves) over fixed form factors
+//   web          one self-contained HTML page that relights the scene from its light basis in WebGL
 #include <omp.h>
 
 #include <cstdio>
@@ -34,6 +36,10 @@ int main(int argc, char** argv) {
   radiosity::app::add_info(app, info);
   radiosity::app::add_formfactors(app, ff);
   radiosity::app::add_solve(app, solve);
+  radiosity::app::RelightArgs relight;
+  radiosity::app::add_relight(app, relight);
+  radiosity::app::WebArgs web;
+  radiosity::app::add_web(app, web);
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
@@ -57,12 +63,14 @@ int main(int argc, char** argv) {
   if (status != 0) return status;
   // One OpenMP thread per rank by default, as bin/poisson does: P ranks on a node would otherwise start P times
   // as many threads as it has cores.
-  const int* threads = ff_cmd ? &ff.threads : solve_cmd ? &solve.threads : &info.threads;
+  const int* threads = ff_cmd ? &ff.threads : solve_cmd ? &solve.threads : &info.threads;  // others: one process
   if (want_mpi && *threads == 0 && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
   hpcgi::comm::Session session(want_mpi);  // MPI_Finalize when main returns, after errors are reported
   return hpcgi::run_main("radiosity", [&]() -> int {
     if (ff_cmd) return radiosity::app::run_formfactors(ff);
     if (solve_cmd) return radiosity::app::run_solve(solve);
+    if (app.got_subcommand("relight")) return radiosity::app::run_relight(relight);
+    if (app.got_subcommand("web")) return radiosity::app::run_web(web);
     return radiosity::app::run_info(info);
   });
 }

@@ -38,6 +38,10 @@ struct Patch {
 struct Mesh {
   std::vector<Patch> patches;          // patch index = order in the file, breadth-first within an entity
   std::vector<std::string> entities;   // one name per triangleset/primitive instance, in file order
+  // RRV scenes: per entity, the object instance it belongs to, "OBJECTDEF.K" (the K-th <object> of that objectdef
+  // in the body, from 1): the names `bin/radiosity info` lists and `relight` sets lights and reflectivities by.
+  // Empty for generated meshes (then an entity is named by its entry in `entities`).
+  std::vector<std::string> instances;
   size_t size() const { return patches.size(); }
 };
 

@@ -66,4 +66,31 @@ struct SolveArgs : SceneArgs {
 void add_solve(CLI::App& app, SolveArgs& a);
 int run_solve(const SolveArgs& a);
 
+// relight (relight_cmd.cpp): frames of new lights and reflectivities over fixed form factors (issue 20).
+struct RelightArgs : SceneArgs {
+  std::string ff, frames, basis;
+  long random_frames = 0;
+  long seed = 1;
+  double basis_tol = 1e-7;
+  SolveConfig cfg;                       // the reflectivity frames' solves (cfg.tol: --tol)
+  std::string ff_precision = "float32";  // how the reflectivity frames' F is stored
+  double frame_budget_ms = 0;
+  long check_every = 0;
+  long record_patches = 0;
+  std::string png_frames, view = "auto", size = "400x300";
+  double exposure = 1;
+  long bench_rhs = 0, passes = 10;
+};
+void add_relight(CLI::App& app, RelightArgs& a);
+int run_relight(const RelightArgs& a);
+
+// web (web_cmd.cpp): one self-contained HTML page that relights the scene from its light basis with WebGL.
+struct WebArgs : SceneArgs {
+  std::string ff, basis, out, view = "inside";
+  double basis_tol = 1e-7;
+  double exposure = 1;
+};
+void add_web(CLI::App& app, WebArgs& a);
+int run_web(const WebArgs& a);
+
 }  // namespace radiosity::app

@@ -11,6 +11,7 @@
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
+#include "radiosity/relight/entities.hpp"
 
 namespace radiosity::app {
 
@@ -97,6 +98,14 @@ int run_info(const InfoArgs& a) {
                    {"total_area", area},         {"min_patch_area", amin},         {"max_patch_area", amax},
                    {"max_reflectivity", rho_max}, {"grey", grey},                  {"mesh_hash", mesh_hash(m)},
                    {"dense_ff_bytes", 4.0 * n * n}};
+  // The names relight and web take: lights, then every entity with its reflectivity.
+  nlohmann::json names = nlohmann::json::array();
+  const std::vector<relight::NamedEntity> named = relight::named_entities(m);
+  for (const relight::NamedEntity& e : named)
+    names.push_back({{"name", e.name}, {"patches", e.patches.size()}, {"light", e.light}, {"emission", e.emission},
+                     {"reflectivity", e.reflectivity},
+                     {"uniform_reflectivity", e.uniform_reflectivity}});
+  rec["result"]["named"] = names;
   rec["times_s"] = {{"load", load_s}};
   if (!a.quiet) {
     std::printf("%s: %zu patches in %zu entities (divide %g), %zu emitting, loaded in %.3f s\n", a.scene.c_str(),
@@ -104,6 +113,17 @@ int run_info(const InfoArgs& a) {
     std::printf("  total area %.4g, patch areas %.3g .. %.3g, max reflectivity %.3g, %s\n", area, amin, amax,
                 rho_max, grey ? "grey (all channels equal)" : "coloured");
     std::printf("  dense float32 form factors: %.3f GiB\n", 4.0 * n * n / (1 << 30));
+    for (const bool light : {true, false})
+      for (const relight::NamedEntity& e : named)
+        if (e.light == light || !light) {
+          if (light)
+            std::printf("  light  %-20s %6zu patches, emission %g,%g,%g\n", e.name.c_str(), e.patches.size(),
+                        e.emission[0], e.emission[1], e.emission[2]);
+          else
+            std::printf("  entity %-20s %6zu patches, reflectivity %g,%g,%g%s\n", e.name.c_str(), e.patches.size(),
+                        e.reflectivity[0], e.reflectivity[1], e.reflectivity[2],
+                        e.uniform_reflectivity ? "" : " (its first patch's; others differ)");
+        }
   }
   if (a.json) std::cout << rec.dump() << std::endl;
   if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);

@@ -29,13 +29,12 @@ struct KeyHash {
   }
 };
 
-}  // namespace
-
-std::vector<std::array<Rgb, 3>> smooth_vertex_colours(const Mesh& m, const std::vector<Rgb>& radiosity,
-                                                      double crease_deg) {
+// The patches that blend into each corner: body(i, k, js) for corner k of patch i, js the patches j (with their
+// areas) that share its position and face within the crease, in a fixed order. Shared by the colours and the weights.
+template <class Body>
+void for_each_corner(const Mesh& m, double crease_deg, bool parallel, Body&& body) {
   const size_t n = m.size();
-  std::vector<std::array<Rgb, 3>> out(n);
-  if (n == 0) return out;
+  if (n == 0) return;
 
   // Rounding noise scales with the size of the coordinates, and so does the grid; it also keeps v / cell <= 1e9.
   double scale = 0;
@@ -61,21 +60,65 @@ std::vector<std::array<Rgb, 3>> smooth_vertex_colours(const Mesh& m, const std::
   }
 
   const double cos_crease = std::cos(std::clamp(crease_deg, 0.0, 180.0) * kPi / 180);
-#pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < n; ++i) {
+  auto corner = [&](size_t i, std::vector<std::pair<size_t, double>>& js) {
     for (int k = 0; k < 3; ++k) {
-      Rgb sum{0, 0, 0};
-      double weight = 0;
+      js.clear();
       for (size_t j : by_position.at(key(m.patches[i].v[k]))) {
         // The 1e-12 lets a patch blend with itself and its coplanar neighbours at crease_deg = 0.
         if (normal[i].dot(normal[j]) < cos_crease - 1e-12) continue;
-        for (int c = 0; c < 3; ++c) sum[c] += area[j] * radiosity[j][c];
-        weight += area[j];
+        js.emplace_back(j, area[j]);
       }
-      for (int c = 0; c < 3; ++c) out[i][k][c] = weight > 0 ? sum[c] / weight : radiosity[i][c];
+      body(i, k, js);
     }
+  };
+  if (parallel) {
+#pragma omp parallel
+    {
+      std::vector<std::pair<size_t, double>> js;
+#pragma omp for schedule(static)
+      for (size_t i = 0; i < n; ++i) corner(i, js);
+    }
+  } else {
+    std::vector<std::pair<size_t, double>> js;
+    for (size_t i = 0; i < n; ++i) corner(i, js);
   }
+}
+
+}  // namespace
+
+std::vector<std::array<Rgb, 3>> smooth_vertex_colours(const Mesh& m, const std::vector<Rgb>& radiosity,
+                                                      double crease_deg) {
+  std::vector<std::array<Rgb, 3>> out(m.size());
+  for_each_corner(m, crease_deg, true, [&](size_t i, int k, const std::vector<std::pair<size_t, double>>& js) {
+    Rgb sum{0, 0, 0};
+    double weight = 0;
+    for (const auto& [j, a] : js) {
+      for (int c = 0; c < 3; ++c) sum[c] += a * radiosity[j][c];
+      weight += a;
+    }
+    for (int c = 0; c < 3; ++c) out[i][k][c] = weight > 0 ? sum[c] / weight : radiosity[i][c];
+  });
   return out;
+}
+
+VertexWeights smooth_vertex_weights(const Mesh& m, double crease_deg) {
+  VertexWeights w;
+  w.start.push_back(0);
+  for_each_corner(m, crease_deg, false, [&](size_t i, int, const std::vector<std::pair<size_t, double>>& js) {
+    double total = 0;
+    for (const auto& [j, a] : js) total += a;
+    if (total > 0) {
+      for (const auto& [j, a] : js) {
+        w.patch.push_back(uint32_t(j));
+        w.weight.push_back(float(a / total));
+      }
+    } else {
+      w.patch.push_back(uint32_t(i));
+      w.weight.push_back(1.0f);
+    }
+    w.start.push_back(uint32_t(w.patch.size()));
+  });
+  return w;
 }
 
 }  // namespace radiosity

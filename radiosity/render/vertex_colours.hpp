@@ -3,6 +3,7 @@
 // the patches that meet at that point, so neighbouring patches blend into each other.
 #pragma once
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "radiosity/mesh.hpp"
@@ -16,5 +17,14 @@ namespace radiosity {
 // radiosity has one entry per patch.
 std::vector<std::array<Rgb, 3>> smooth_vertex_colours(const Mesh& m, const std::vector<Rgb>& radiosity,
                                                       double crease_deg);
+
+// The same blend as weights, for a renderer that relights and blends itself (bin/radiosity web): corner 3i + k
+// (corner k of patch i) is Σ weight[q] B[patch[q]] over q in [start[3i + k], start[3i + k + 1]), the weights
+// A_j / Σ A_j (a corner without weight: its own patch, weight 1).
+struct VertexWeights {
+  std::vector<uint32_t> start, patch;
+  std::vector<float> weight;
+};
+VertexWeights smooth_vertex_weights(const Mesh& m, double crease_deg);
 
 }  // namespace radiosity

@@ -274,6 +274,8 @@ class Reader {
   }
 
   void instantiate(const ObjectDef& def, const Transform& m, const pugi::xml_node& object) {
+    const std::string def_name = in_.text(object, "name");
+    const std::string instance = def_name + "." + std::to_string(++instances_[def_name]);
     for (const Shape& s : def) {
       std::vector<Patch> placed = s.triangles;
       for (size_t k = 0; k < placed.size(); ++k) {
@@ -296,6 +298,7 @@ class Reader {
                              " (reached at '" + s.name + "'); use a larger --divide");
       mesh_.patches.insert(mesh_.patches.end(), patches->begin(), patches->end());
       mesh_.entities.push_back(s.name);
+      mesh_.instances.push_back(instance);
     }
   }
 
@@ -303,6 +306,7 @@ class Reader {
   const LoadOptions& opt_;
   const std::vector<std::string> teapot_dirs_;
   std::map<std::string, ObjectDef> defs_;
+  std::map<std::string, int> instances_;  // <object>s of each objectdef so far
   std::optional<std::vector<Triangle>> teapot_;
   Mesh mesh_;
 };

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 #if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
 #include <immintrin.h>
@@ -288,6 +289,112 @@ void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int3
       });
     else
       dense_matvec<Val>(ex, data, rows, x, y, rho, e, a, cs, d);
+  };
+  switch (F.values) {
+    case FFValues::float32: run(Float32Values{}); break;
+    case FFValues::float16: run(Float16Values{}); break;
+    case FFValues::bfloat16: run(BFloat16Values{}); break;
+  }
+}
+
+// The product with k right-hand sides (relighting: one per light, radiosity/relight/): Y_q = a·X_q + c·ρ ⊙ (F X_q)
+// + d·E_q for q < k, each X_q three channels (SOA), all of them in ONE pass over a dense F. Four rows at a time, the
+// columns in chunks of kMultiChunk: the four rows' chunk of F (8 KiB in float32) comes from memory once and stays in
+// L1 while sums4 runs over it for every right-hand side in turn (X's chunks, 6 KiB each, from L2), so F's traffic is
+// that of one product whatever k is, and the time per right-hand side falls with k until the sums, not the reads,
+// set the pace. 16-bit values are widened once per chunk into a float buffer that all k sums read. The chunked sums
+// round differently from matvec_rows (not the same bits as k single products); the same for any k and threads.
+inline constexpr size_t kMultiChunk = 512;
+// 16-bit values are widened into a float buffer once per chunk from this many right-hand sides on; below it sums4
+// widens them as it reads (the solvers' product, whose F traffic is half float32's).
+inline constexpr size_t kWidenFrom = 4;
+
+template <class Val, class T>
+[[gnu::noinline]] void multi_matvec_rows(const typename Val::stored* F, size_t n, const int32_t* rows,
+                                         const Soa<T>* X, Soa<T>* Y, const Soa<T>& rho, const Soa<T>* E, size_t k,
+                                         T a, T c, T d, size_t k0, size_t k1) {
+  static thread_local std::vector<T> acc;  // k × kGroup × 3 partial sums
+  static thread_local std::vector<float> wide;  // 16-bit values: the four rows' chunk as float
+  acc.assign(k * kGroup * 3, T(0));
+  constexpr bool as_float = std::is_same_v<Val, Float32Values>;
+  if (!as_float && k >= kWidenFrom) wide.resize(kGroup * kMultiChunk);
+  auto row = [&](size_t q) { return rows ? size_t(rows[q]) : q; };
+  for (size_t g = k0; g < k1; g += kGroup) {
+    size_t i[kGroup];
+    const size_t here = std::min(kGroup, k1 - g);
+    for (size_t r = 0; r < kGroup; ++r) i[r] = row(r < here ? g + r : g);  // a short group repeats its first row
+    std::fill(acc.begin(), acc.end(), T(0));
+    for (size_t j0 = 0; j0 < n; j0 += kMultiChunk) {
+      const size_t m = std::min(kMultiChunk, n - j0);
+      if (as_float || k < kWidenFrom) {
+        // float32, or 16-bit values widened in the sums (sums4's load8) again for every right-hand side
+        const typename Val::stored* const Fs[kGroup] = {F + i[0] * n + j0, F + i[1] * n + j0, F + i[2] * n + j0,
+                                                         F + i[3] * n + j0};
+        for (size_t q = 0; q < k; ++q) {
+          T (&s)[kGroup][3] = *reinterpret_cast<T(*)[kGroup][3]>(acc.data() + q * kGroup * 3);
+          sums4<Val, 3>(Fs, X[q].data(0) + j0, X[q].data(1) + j0, X[q].data(2) + j0, m, s);
+        }
+        continue;
+      }
+      const float* Fr[kGroup];
+      for (size_t r = 0; r < kGroup; ++r) {
+        const typename Val::stored* src = F + i[r] * n + j0;
+        float* dst = wide.data() + r * kMultiChunk;
+        size_t j = 0;
+#ifdef HPCGI_AVX2_SUMS
+        for (; j + 8 <= m; j += 8) _mm256_storeu_ps(dst + j, Val::load8(src + j));
+#endif
+        for (; j < m; ++j) dst[j] = Val::get(src, j);
+        Fr[r] = dst;
+      }
+      const float* const Fg[kGroup] = {Fr[0], Fr[1], Fr[2], Fr[3]};
+      for (size_t q = 0; q < k; ++q) {
+        T (&s)[kGroup][3] = *reinterpret_cast<T(*)[kGroup][3]>(acc.data() + q * kGroup * 3);
+        sums4<Float32Values, 3>(Fg, X[q].data(0) + j0, X[q].data(1) + j0, X[q].data(2) + j0, m, s);
+      }
+    }
+    for (size_t q = 0; q < k; ++q) {
+      const T* s = acc.data() + q * kGroup * 3;
+      for (size_t r = 0; r < here; ++r)
+        for (int ch = 0; ch < 3; ++ch)
+          Y[q](i[r], ch) = a * X[q](i[r], ch) + c * rho(i[r], ch) * s[r * 3 + ch] + d * E[q](i[r], ch);
+    }
+  }
+}
+
+// The k-right-hand-side product for a dense stored matrix (ff_matrix.hpp), every needed row computed (rows:
+// dense_rows_to_compute; the other rows, reflectivity 0, get a·X + d·E). X, Y and E hold k vectors each; Y must not
+// alias X. The float16 scale is folded into c. A CSR matrix is refused (the relighting reads dense F).
+template <class Exec, class T>
+void multi_affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows,
+                         const std::vector<Soa<T>>& X, std::vector<Soa<T>>& Y, const Soa<T>& rho,
+                         const std::vector<Soa<T>>& E, T a, T c, T d) {
+  const size_t n = F.n, k = X.size();
+  if (F.storage != FFStorage::dense) throw std::invalid_argument("multi_affine_matvec: dense form factors only");
+  if (Y.size() != k || E.size() != k) throw std::invalid_argument("multi_affine_matvec: X, Y and E differ in count");
+  const T cs = T(double(c) * F.scale);
+  auto run = [&](auto values) {
+    using Val = decltype(values);
+    const auto* data = static_cast<const typename Val::stored*>(F.data);
+    if (rows.empty()) {
+      ex.rows(n, [&](size_t i0, size_t i1) {
+        multi_matvec_rows<Val>(data, n, nullptr, X.data(), Y.data(), rho, E.data(), k, a, cs, d, i0, i1);
+      });
+      return;
+    }
+    ex.rows(n, [&](size_t i0, size_t i1) {
+      const size_t lo = size_t(std::lower_bound(rows.begin(), rows.end(), int32_t(i0)) - rows.begin());
+      const size_t hi = size_t(std::lower_bound(rows.begin(), rows.end(), int32_t(i1)) - rows.begin());
+      for (size_t i = i0, q = lo; i < i1; ++i) {
+        if (q < hi && size_t(rows[q]) == i) {
+          ++q;
+          continue;
+        }
+        for (size_t p = 0; p < k; ++p)
+          for (int ch = 0; ch < 3; ++ch) Y[p](i, ch) = a * X[p](i, ch) + d * E[p](i, ch);
+      }
+      if (lo < hi) multi_matvec_rows<Val>(data, n, rows.data(), X.data(), Y.data(), rho, E.data(), k, a, cs, d, lo, hi);
+    });
   };
   switch (F.values) {
     case FFValues::float32: run(Float32Values{}); break;

@@ -125,6 +125,19 @@ def bench(preset, p):
           f"--ff-precision {v} --threads {t}" for v in ("float16", "bfloat16")),
         *(f"{peer} numpy-jacobi {{RRV_SCENES}}/room3.xml --ff {ff} --solved {{FF_DIR}}/bench-room3-solved.xml --steps 32 --way {w} "
           f"--threads {t}" for w in ("gemm", "gemv"))])
+    # Issue 20: the product with k right-hand sides (one pass over F), room2's basis frames (its form factors at
+    # R = 64, made once by slurm/bench) and room3's wall 10% darker, warm-started.
+    relight = f"bin/radiosity relight {room3} --ff {ff} --threads {t}"
+    e["bench-relight"] = ("Bench: relighting: the product with k = 1 .. 16 right-hand sides on room3 (float32, float16), "
+                          "room2's basis frames, room3's wall frames warm-started", None, [
+        *(f"{relight} --bench-rhs {k} --ff-precision {v} --passes 10" for v in ("float32", "float16")
+          for k in (1, 2, 4, 8, 16)),
+        f"bin/radiosity relight {{RRV_SCENES}}/room2.xml --ff {{FF_DIR}}/bench-room2.ff --threads {t} "
+        f"--basis {{FF_DIR}}/bench-room2.basis --random-frames 10000",
+        *(f"{relight} --basis {{FF_DIR}}/bench-room3.basis --frames radiosity/relight/frames/room3-wall.json "
+          f"--method {m} --tol 1e-4 --check-every 1" for m in ("jacobi", "bicgstab")),
+        *(f"{relight} --basis {{FF_DIR}}/bench-room3.basis --frames radiosity/relight/frames/room3-wall.json "
+          f"--method {m} --ff-precision float16 --tol 1e-3 --check-every 1" for m in ("jacobi", "bicgstab"))])
     return e
 
 
@@ -183,6 +196,32 @@ def table42_audit(preset, p):
             *(run(s, w, f"--method sor --omega {o:g} --tol 1e-6 --start {start} --threads 1")
               for o in a["omegas"] if w == "exact" and start == "rrv"))])
     return e
+
+
+# Real-time relighting (issue 20), per scene of the preset: random light mixes served from the light basis (every
+# 20th frame checked against a cold float64 solve), a wall's reflectivity 10% lower and back, warm-started (Jacobi and
+# BiCG-STAB to 1e-4, every frame's cold iterations beside it; Jacobi with F in float16 to 1e-3 within 50 ms), and the
+# cold solve to 1e-6 the report would need per frame. The lines of a scene share one basis file (the first writes it).
+# One repeat: each case times its own frames (the mixes: hundreds of them).
+RELIGHT_MIXES = {"quick": 200, "ci": 20, "paper": 1000}
+
+
+def relight(preset, p):
+    t = p["cores"]
+    lines = []
+    for s in p["scenes"]:
+        name = SCENES[s][0]
+        base = (f"bin/radiosity relight {scene_args(s, preset)} --basis {{FF_DIR}}/{preset}-{name}.basis "
+                f"--threads {t}")
+        wall = f"--frames radiosity/relight/frames/{name}-wall.json"
+        lines += [f"{base} --random-frames {RELIGHT_MIXES[preset]} --check-every 20",
+                  *(f"{base} {wall} --method {m} --tol 1e-4 --check-every 1" for m in ("jacobi", "bicgstab")),
+                  f"{base} {wall} --method jacobi --ff-precision float16 --tol 1e-3 --frame-budget-ms 50 "
+                  f"--check-every 1",
+                  f"bin/radiosity solve {scene_args(s, preset)} --method jacobi --tol 1e-6 --backend openmp "
+                  f"--threads {t}"]
+    return {"relight": ("Real-time relighting: light mixes from the basis, warm-started reflectivity frames, and the "
+                        "cold solve per frame they replace", 1, lines)}
 
 
 # Speed against accuracy (issue 6). Each sweep varies one setting of the report's default run
@@ -371,7 +410,7 @@ def main():
         (HERE / preset).mkdir(exist_ok=True)
         lists = {**experiments(preset, p), **(bench(preset, p) if preset != "ci" else {}),
                  **(accuracy(preset, p) if preset in ACCURACY else {}), **mpi_experiments(preset, p),
-                 **table42_audit(preset, p)}
+                 **table42_audit(preset, p), **relight(preset, p)}
         for name, (title, repeat, lines) in lists.items():
             text = HEADER.format(title=title, preset=preset)
             if repeat:

@@ -1,0 +1,144 @@
+"""Real-time relighting (issue 20): tables and a plot from the records of the experiment `relight` and of the bench
+list `bench-relight`, and the reproduced report's section.
+
+relight_PRESET: per scene, a frame served from the light basis (latency p50/p99, relights per second, worst error
+against a cold float64 solve) against the cold Jacobi solve to 1e-6 the report would need per frame, and a wall's
+reflectivity 10% lower re-converged from the previous frame (iterations against the same solve started cold).
+bench_relight_PRESET: the product with k right-hand sides (one pass over F), time per right-hand side against k."""
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from analysis.radiosity_tables import write  # noqa: E402
+from analysis.records import load, plots_dir, writing  # noqa: E402
+
+
+def _col(df, name):
+    return df[name] if name in df.columns else pd.Series([None] * len(df), index=df.index)
+
+
+def _solved(per_frame):
+    return [f for f in per_frame if f.get("kind") == "solved"]
+
+
+def _wall(rows):
+    """Mean warm iterations, mean cold iterations, solved-frame p50 ms and worst error of wall-frame records."""
+    if rows.empty:
+        return None
+    r = rows.iloc[-1]
+    fr = _solved(r["result.per_frame"])
+    warm = [f["iterations"] for f in fr if "cold_iterations" in f]
+    cold = [f["cold_iterations"] for f in fr if "cold_iterations" in f]
+    return dict(warm=np.mean(warm) if warm else np.nan, cold=np.mean(cold) if cold else np.nan,
+                p50=r["result.latency_solved.p50_ms"], worst=r["result.worst_error"],
+                within=sum(f.get("status") in ("converged", "budget") for f in fr), solved=len(fr))
+
+
+def scenes_table(preset):
+    df = load("relight", preset)
+    if df.empty:
+        return None
+    cmd = _col(df, "params.command")
+    rel, cold = df[cmd == "relight"], df[cmd == "solve"]
+    rows = []
+    for sid in sorted(set(rel["scene_id"].dropna())):
+        r = rel[rel["scene_id"] == sid]
+        mixes = r[_col(r, "params.random_frames").notna()]
+        walls = r[_col(r, "params.frames").notna()]
+        row = {"scene": int(sid), "patches": int(r["params.patches"].iloc[0])}
+        if len(mixes):
+            m = mixes.iloc[-1]
+            solved = r[_col(r, "result.basis.loaded") == False]  # noqa: E712 (the case that solved the basis)
+            b = solved.iloc[-1] if len(solved) else m
+            row.update(lights=len(m["result.lights"]), basis_steps=b["result.basis.iterations"],
+                       basis_s=b["result.basis.seconds"], frame_p50_ms=m["result.latency_basis.p50_ms"],
+                       frame_p99_ms=m["result.latency_basis.p99_ms"],
+                       relights_per_s=1e3 / m["result.latency_basis.p50_ms"],
+                       worst_error=m["result.worst_error"])
+        c = cold[cold["scene_id"] == sid]
+        if len(c):
+            row.update(cold_solve_s=c["times_s.solve"].iloc[-1], cold_iters=int(c["result.iterations"].iloc[-1]))
+            if "frame_p50_ms" in row:
+                row["cold_over_frame"] = row["cold_solve_s"] * 1e3 / row["frame_p50_ms"]
+        for label, sel in (("jacobi", (walls["params.method"] == "jacobi") & (walls["params.ff_precision"] == "float32")),
+                           ("bicgstab", walls["params.method"] == "bicgstab")):
+            w = _wall(walls[sel])
+            if w:
+                row[f"{label}_warm_over_cold"] = w["warm"] / w["cold"]
+        w = _wall(walls[walls["params.ff_precision"] == "float16"])
+        if w:
+            row.update(f16_1e3_p50_ms=w["p50"], f16_within_budget=f"{w['within']}/{w['solved']}")
+        rows.append(row)
+    t = pd.DataFrame(rows)
+    notes = ["A basis frame is the mix of one float64 solution per light (one thread, rendering excluded); its error is "
+             "the largest |B - B_ref| over the largest |B_ref| against a cold float64 solve (1e-12) of the same "
+             "emissions, every 20th frame. cold_solve_s: Jacobi to 1e-6 in float from RRV's start, the solve a frame "
+             "would need without the basis. *_warm_over_cold: iterations of the wall frames (a wall's reflectivity "
+             "times 0.9, then back) started from the previous frame's B, over the same solve started cold, to 1e-4. "
+             "f16: Jacobi with F in float16 to 1e-3 under a 50 ms budget (frames that converged or stopped at the "
+             "budget, of the solved frames). Times are this machine's, under whatever else ran on it."]
+    return write("relight", preset, f"Relighting ({preset})", t, notes)
+
+
+def bench_table(preset):
+    df = load("bench-relight", preset)
+    if df.empty or "params.bench_rhs" not in df.columns:
+        return None, None
+    b = df[df["params.bench_rhs"].notna()].copy()
+    if b.empty:
+        return None, None
+    t = b.groupby(["params.ff_precision", "params.bench_rhs"]).agg(
+        product_ms=("result.product_ms_median", "median"), single_ms=("result.single_product_ms_median", "median"),
+        gbps=("result.bandwidth_GBps", "median"),
+        alt=("result.over_k1_alternating", "median")).reset_index()
+    t.columns = ["ff_precision", "k", "product_ms", "single_product_ms", "F_GBps", "over_k1_alternating"]
+    t["k"] = t["k"].astype(int)
+    t["per_rhs_ms"] = t["product_ms"] / t["k"]
+    one = t[t["k"] == 1].set_index("ff_precision")["product_ms"]
+    t["over_k1"] = [r.product_ms / one.get(r.ff_precision, np.nan) for r in t.itertuples()]
+    notes = ["One pass over room3's F for k right-hand sides of three channels each (linalg.hpp's multi_affine_matvec), "
+             "median of 10 timed products; single_product_ms: the solvers' one-right-hand-side product (affine_matvec) "
+             "on the same F beside it; over_k1: the k-product's time over the k = 1 case's (separate runs); "
+             "over_k1_alternating: over the k = 1 product timed in turns with it in the same run (the ratio that holds "
+             "on a shared machine). The issue asks for <= 2.5 at k = 8."]
+    text = write("bench_relight", preset, f"Product with k right-hand sides, room3 ({preset})", t, notes)
+    return text, t
+
+
+def plot(preset, t):
+    if t is None or not writing():
+        return None
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for prec, g in t.groupby("ff_precision"):
+        ax.plot(g["k"], g["per_rhs_ms"], "o-", label=f"F in {prec}")
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("right-hand sides k")
+    ax.set_ylabel("ms per right-hand side")
+    ax.set_title("One pass over room3's F for k right-hand sides")
+    ax.legend()
+    fig.tight_layout()
+    plots_dir().mkdir(parents=True, exist_ok=True)
+    path = plots_dir() / f"bench_relight_{preset}.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write_all(preset):
+    text, t = bench_table(preset)
+    return {"relight": scenes_table(preset), "bench_relight": text, "bench_relight_plot": plot(preset, t)}
+
+
+def report_section(preset, include, image):
+    """The reproduced report's section on relighting (analysis/report.py adds it)."""
+    return ["## Real-time relighting (issue 20)", "",
+            "The report's §3.6 computes the form factors once because they do not change with lighting or "
+            "reflectivity. B is linear in E: with F and the reflectivities fixed, any mix of the lights' intensities "
+            "and colours is the same mix of one solution per light (`bin/radiosity relight`, its light basis), so a "
+            "frame costs O(patches x lights) instead of a solve. A reflectivity change needs a solve, started from the "
+            "previous frame's B. `bin/radiosity web` writes a page that relights in the browser from the same basis.",
+            "", include("relight", preset), include("bench_relight", preset),
+            image("bench_relight", preset, "Time per right-hand side against k"), ""]

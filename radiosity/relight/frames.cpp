@@ -1,0 +1,201 @@
+#include "radiosity/relight/frames.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "common/errors.hpp"
+
+namespace radiosity::relight {
+namespace {
+
+// Line, column and frame index of byte `at` of a {"frames": [...]} document (the frame: objects opened at depth 2).
+std::string where(const std::string& text, size_t at) {
+  size_t line = 1, col = 1;
+  int depth = 0;
+  long frame = -1;
+  bool in_string = false, escaped = false;
+  for (size_t i = 0; i < at && i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') ++line, col = 1;
+    else ++col;
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == '{' || c == '[') {
+      if (c == '{' && depth == 2) ++frame;
+      ++depth;
+    } else if (c == '}' || c == ']') --depth;
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col) +
+         (frame >= 0 ? " (frame " + std::to_string(frame) + ")" : "");
+}
+
+double number(const nlohmann::json& v, const std::string& what) {
+  if (!v.is_number()) throw hpcgi::UsageError(what + " is not a number (" + v.dump() + ")");
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) throw hpcgi::UsageError(what + " is not finite");
+  if (x < 0) throw hpcgi::UsageError(what + " is negative (" + v.dump() + ")");
+  return x;
+}
+
+Rgb triple(const nlohmann::json& v, const std::string& what) {
+  if (!v.is_array() || v.size() != 3) throw hpcgi::UsageError(what + " must be three numbers [r, g, b], got " + v.dump());
+  Rgb c;
+  for (int i = 0; i < 3; ++i) c[i] = number(v[i], what + "[" + std::to_string(i) + "]");
+  return c;
+}
+
+}  // namespace
+
+std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
+                               bool allow_reflectivity_ge_1) {
+  std::vector<Rgb> scene_rho(m.size());
+  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
+  std::ifstream f(path);
+  if (!f) throw hpcgi::UsageError(path + ": cannot open the frames file");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string text = ss.str();
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    std::string why = e.what();  // "[json.exception.parse_error.101] parse error at line L, column C: WHY"
+    const size_t col = why.find("column");
+    const size_t colon = why.find(": ", col == std::string::npos ? 0 : col);
+    if (colon != std::string::npos) why = why.substr(colon + 2);
+    throw hpcgi::UsageError(path + ": malformed JSON at " + where(text, e.byte > 0 ? e.byte - 1 : 0) + ": " + why +
+                            " (NaN and Infinity are not JSON)");
+  } catch (const nlohmann::json::out_of_range& e) {  // a number beyond double, e.g. 1e999: "... parsing 'LITERAL'"
+    std::string why = e.what();
+    const size_t q0 = why.find('\''), q1 = why.rfind('\'');
+    const std::string literal = q0 < q1 ? why.substr(q0 + 1, q1 - q0 - 1) : "";
+    const size_t at = literal.empty() ? std::string::npos : text.find(literal);
+    throw hpcgi::UsageError(path + ": number out of range" +
+                            (at != std::string::npos ? " at " + where(text, at) : std::string()) + ": " + literal +
+                            " is not finite as a double");
+  }
+  if (!doc.is_object() || !doc.contains("frames") || !doc["frames"].is_array() || doc.size() != 1)
+    throw hpcgi::UsageError(path + ": a frames file is one object {\"frames\": [frame, ...]}");
+  const std::vector<NamedEntity> lights = lights_of(named);
+  std::map<std::string, size_t> light_index, entity_index;
+  for (size_t l = 0; l < lights.size(); ++l) light_index[lights[l].name] = l;
+  for (size_t e = 0; e < named.size(); ++e) entity_index[named[e].name] = e;
+  Frame state;
+  state.lights.assign(lights.size(), LightSetting{});
+  state.reflectivity.assign(named.size(), std::nullopt);
+  state.reflectivity_scale.assign(named.size(), 1.0);
+  std::vector<Frame> frames;
+  const nlohmann::json& list = doc["frames"];
+  for (size_t k = 0; k < list.size(); ++k) {
+    const std::string at = path + ": frame " + std::to_string(k) + ": ";
+    try {
+      const nlohmann::json& fr = list[k];
+      if (!fr.is_object()) throw hpcgi::UsageError("a frame is an object {\"lights\": {...}, \"reflectivity\": {...}}");
+      for (const auto& [key, value] : fr.items()) {
+        if (key == "lights") {
+          if (!value.is_object()) throw hpcgi::UsageError("\"lights\" must be an object {NAME: {\"intensity\", \"rgb\"}}");
+          for (const auto& [name, s] : value.items()) {
+            const auto it = light_index.find(name);
+            if (it == light_index.end())
+              throw hpcgi::UsageError("unknown light '" + name + "' (lights: " + name_list(lights) + ")");
+            if (!s.is_object()) throw hpcgi::UsageError("light '" + name + "' must be {\"intensity\": x, \"rgb\": [r, g, b]}");
+            LightSetting& ls = state.lights[it->second];
+            for (const auto& [field, v] : s.items()) {
+              if (field == "intensity") ls.intensity = number(v, "light '" + name + "' intensity");
+              else if (field == "rgb") ls.colour = triple(v, "light '" + name + "' rgb");
+              else throw hpcgi::UsageError("light '" + name + "': unknown key '" + field + "' (intensity, rgb)");
+            }
+          }
+        } else if (key == "reflectivity") {
+          if (!value.is_object()) throw hpcgi::UsageError("\"reflectivity\" must be an object {NAME: [r, g, b]}");
+          for (const auto& [name, v] : value.items()) {
+            const auto it = entity_index.find(name);
+            if (it == entity_index.end())
+              throw hpcgi::UsageError("unknown entity '" + name + "' (entities: " + name_list(named) + ")");
+            const std::string what = "reflectivity of '" + name + "'";
+            const NamedEntity& ent = named[it->second];
+            if (v.is_object()) {
+              if (v.size() != 1 || !v.contains("scale"))
+                throw hpcgi::UsageError(what + " must be [r, g, b] or {\"scale\": f}, got " + v.dump());
+              const double f = number(v["scale"], what + " scale");
+              double top = 0;
+              for (size_t i : ent.patches)
+                for (int c = 0; c < 3; ++c) top = std::max(top, scene_rho[i][c] * f);
+              if (top >= 1 && !allow_reflectivity_ge_1)
+                throw hpcgi::UsageError(what + " times " + v["scale"].dump() + " is >= 1 in a channel of a patch (" +
+                                        std::to_string(top) + "); give --allow-reflectivity-ge-1 to accept it");
+              state.reflectivity[it->second] = std::nullopt;
+              state.reflectivity_scale[it->second] = f;
+              continue;
+            }
+            const Rgb rho = triple(v, what);
+            for (int c = 0; c < 3; ++c)
+              if (rho[c] >= 1 && !allow_reflectivity_ge_1)
+                throw hpcgi::UsageError(what + " is >= 1 in a channel (" + v.dump() +
+                                        "); give --allow-reflectivity-ge-1 to accept it");
+            state.reflectivity[it->second] = rho;
+            state.reflectivity_scale[it->second] = 1;
+          }
+        } else {
+          throw hpcgi::UsageError("unknown key '" + key + "' (a frame has lights, reflectivity)");
+        }
+      }
+    } catch (const hpcgi::UsageError& e) {
+      throw hpcgi::UsageError(at + e.what());
+    }
+    state.scene_reflectivity = true;
+    for (size_t e = 0; e < named.size(); ++e)
+      state.scene_reflectivity &= state.reflectivity_scale[e] == 1 &&
+                                  (!state.reflectivity[e] ||
+                                   (named[e].uniform_reflectivity && *state.reflectivity[e] == named[e].reflectivity));
+    frames.push_back(state);
+  }
+  if (frames.empty()) throw hpcgi::UsageError(path + ": no frames");
+  return frames;
+}
+
+std::vector<Frame> random_frames(size_t count, uint64_t seed, const std::vector<NamedEntity>& named) {
+  const size_t k = lights_of(named).size();
+  uint64_t s = seed * 0x9E3779B97F4A7C15ull + 1;
+  auto uniform = [&s] {  // splitmix64, its top 53 bits as [0, 1)
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return double((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  };
+  std::vector<Frame> frames(count);
+  for (Frame& f : frames) {
+    f.reflectivity.assign(named.size(), std::nullopt);
+    f.reflectivity_scale.assign(named.size(), 1.0);
+    f.lights.resize(k);
+    for (LightSetting& l : f.lights) {
+      l.intensity = 2 * uniform();
+      for (double& c : l.colour) c = uniform();
+    }
+  }
+  return frames;
+}
+
+Mesh frame_mesh(const Mesh& m, const std::vector<NamedEntity>& named, const Frame& f) {
+  Mesh out = m;
+  const std::vector<NamedEntity> lights = lights_of(named);
+  const std::vector<Rgb> e = frame_emission(m, lights, f.lights);
+  for (size_t i = 0; i < m.size(); ++i) out.patches[i].emission = e[i];
+  for (size_t k = 0; k < named.size(); ++k)
+    for (size_t i : named[k].patches) {
+      if (f.reflectivity[k]) out.patches[i].reflectivity = *f.reflectivity[k];
+      for (double& c : out.patches[i].reflectivity) c *= f.reflectivity_scale[k];
+    }
+  return out;
+}
+
+}  // namespace radiosity::relight
