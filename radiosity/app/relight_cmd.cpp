@@ -196,6 +196,8 @@ int run_relight(const RelightArgs& a) {
   if (!backend->any_storage && values != FFValues::float32)
     throw hpcgi::UsageError("backend '" + backend->name + "' reads dense float32 form factors only: --ff-precision "
                             "float16|bfloat16 runs on serial and openmp");
+  // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.
+  check_files(a, {{a.basis, "--basis"}}, {{a.ff, "--ff"}, {a.frames, "--frames"}});
   double load_s = 0;
   const Mesh m = load_scene(a, &load_s);
   const size_t n = m.size();

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "common/files.hpp"
 #include "common/cli.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
@@ -83,6 +84,7 @@ void add_web(CLI::App& app, WebArgs& a) {
 
 int run_web(const WebArgs& a) {
   hpcgi::Timer total;
+  check_files(a, {{a.out, "-o"}, {a.basis, "--basis"}}, {{a.ff, "--ff"}});
   double load_s = 0;
   const Mesh m = load_scene(a, &load_s);
   const size_t n = m.size();
@@ -134,17 +136,10 @@ int run_web(const WebArgs& a) {
   std::string page = replace_all(kPage, "@TITLE@", html_escape(title));
   page = replace_all(page, "@PATCHES@", std::to_string(n));
   page = replace_all(page, "@DATA@", replace_all(data.dump(), "</", "<\\/"));
-  const std::string tmp = a.out + ".tmp";
   {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f || !f.write(page.data(), std::streamsize(page.size())) || !f.flush()) {
-      std::remove(tmp.c_str());
-      throw std::runtime_error(a.out + ": cannot write the page");
-    }
-  }
-  if (std::rename(tmp.c_str(), a.out.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(a.out + ": cannot rename " + tmp + " to it");
+    hpcgi::files::AtomicFile out(a.out);
+    if (std::fwrite(page.data(), 1, page.size(), out.stream()) != page.size()) out.fail(std::strerror(errno));
+    out.commit();
   }
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "web"}, {"scene", a.scene}, {"patches", n}, {"ff_file", a.ff}, {"output", a.out}};

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <vector>
 
+#include "common/files.hpp"
 #include "common/errors.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 
@@ -82,21 +83,13 @@ void save_basis(const std::string& path, const BasisKey& key, const LightBasis& 
   Fnv64 h;
   h.update(b.data(), b.size());
   put(b, h.finish());
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f || !f.write(b.data(), std::streamsize(b.size())) || !f.flush()) {
-      std::remove(tmp.c_str());
-      throw std::runtime_error(path + ": cannot write the light-basis file");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename " + tmp + " to it");
-  }
+  hpcgi::files::AtomicFile out(path);  // a unique temporary file beside it, renamed over it when whole
+  if (std::fwrite(b.data(), 1, b.size(), out.stream()) != b.size()) out.fail(std::strerror(errno));
+  out.commit();
 }
 
 LightBasis load_basis(const std::string& path, const BasisKey& key, const std::vector<NamedEntity>& lights) {
+  hpcgi::files::require_input(path, "light-basis file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw hpcgi::UsageError(path + ": cannot open the light-basis file");
   const std::vector<char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
