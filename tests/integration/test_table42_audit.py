@@ -113,10 +113,10 @@ def test_bad_options_exit_2_with_one_line(scenes, bad, says, tmp_path):
 
 
 def test_ci_audit_case_lists_run_and_make_the_tables(tmp_path):
-    env = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci"}
+    env = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "MACHINE": "audit-test"}
     p = run([ROOT / "slurm" / "run-local", "table42-audit-formfactors", "table42-audit"], env=env, timeout=900)
     assert p.returncode == 0, p.stderr
-    lines = (tmp_path / "results" / "table42-audit" / "ci.jsonl").read_text().splitlines()
+    lines = (tmp_path / "results" / "audit-test" / "table42-audit" / "ci.jsonl").read_text().splitlines()
     cases = [l for l in (ROOT / "slurm" / "cases" / "ci" / "table42-audit.txt").read_text().splitlines()
              if l.strip() and not l.startswith("#")]
     assert len(lines) == len(cases)
@@ -126,9 +126,9 @@ def test_ci_audit_case_lists_run_and_make_the_tables(tmp_path):
     p = run([ROOT / ".venv" / "bin" / "python", "-c", "from analysis import table42_audit; table42_audit.write('ci')"],
             env=env, cwd=ROOT)
     assert p.returncode == 0, p.stderr
-    tables = tmp_path / "results" / "tables"
+    tables = tmp_path / "results" / "audit-test" / "tables"
     rules = (tables / "table42_audit_rules_ci.md").read_text()
     assert f"replays it in {len(lines)} of {len(lines)} converged audit runs." in rules
     verdict = (tables / "table42_audit_verdict_ci.md").read_text()
     assert "Both counts at once" in verdict
-    assert (tmp_path / "results" / "plots" / "table42_audit_ci.png").exists()
+    assert (tmp_path / "results" / "audit-test" / "plots" / "table42_audit_ci.png").exists()
