@@ -391,8 +391,8 @@ def report_section(preset, include, image):
            "rrv`: max(radiosity, emission), or zero). Every run below recorded its residual history "
            "(`--history`); case list `table42-audit`.", ""]
     if df.empty:
-        return out + ["No table42-audit records for this preset yet (`slurm/run-local table42-audit-formfactors "
-                      "table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
+        return out + ["No table42-audit records for this preset yet (`slurm/run-local formfactors "
+                      "table42-audit-formfactors table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
     counts = report_counts()
     out += ["### Verdict", "", *verdict(df, counts), "",
             include("table42_audit_rules", preset), include("table42_audit_interval", preset),

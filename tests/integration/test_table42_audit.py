@@ -114,7 +114,7 @@ def test_bad_options_exit_2_with_one_line(scenes, bad, says, tmp_path):
 
 def test_ci_audit_case_lists_run_and_make_the_tables(tmp_path):
     env = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "MACHINE": "audit-test"}
-    p = run([ROOT / "slurm" / "run-local", "table42-audit-formfactors", "table42-audit"], env=env, timeout=900)
+    p = run([ROOT / "slurm" / "run-local", "formfactors", "table42-audit-formfactors", "table42-audit"], env=env, timeout=900)
     assert p.returncode == 0, p.stderr
     lines = (tmp_path / "results" / "audit-test" / "table42-audit" / "ci.jsonl").read_text().splitlines()
     cases = [l for l in (ROOT / "slurm" / "cases" / "ci" / "table42-audit.txt").read_text().splitlines()
