@@ -70,11 +70,17 @@ PROGRAMS := $(BIN)/poisson $(if $(wildcard radiosity/main.cpp),$(BIN)/radiosity)
 
 PRESET ?= quick
 RUNNER ?= local
-# The accuracy sweeps and extremes (issue 6) add about four minutes to the quick preset on 2 cores, the MPI
-# experiments (issue 9) about 70 seconds; the Table 4.2 audit (issue 21) 2 hemicubes and 154 solves of room3.
-EXPERIMENTS ?= formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors accuracy-tolerance \
-               accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes mpi-formfactors \
-               mpi-radiosity mpi-large table42-audit-formfactors table42-audit relight
+# make reproduce runs the report's tables and figure, the speed-against-accuracy sweeps and extremes (issue 6, about
+# four minutes of the quick preset on 2 cores) and the MPI experiments (issue 9, about 2.5 minutes). The two longer
+# studies beyond the report, the Table 4.2 audit (issue 21: 154 solves of room3, about 7 minutes at quick) and
+# relighting (issue 20, about a minute), run with LONG=1, the default of every preset but quick and ci, so that the
+# quick preset fits in 15 minutes on 2 cores (README, "Reproducing on your machine").
+REPORT_EXPERIMENTS := formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors \
+                      accuracy-tolerance accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes \
+                      mpi-formfactors mpi-radiosity mpi-large
+LONG_EXPERIMENTS := table42-audit-formfactors table42-audit relight
+LONG ?= $(if $(filter quick ci,$(PRESET)),0,1)
+EXPERIMENTS ?= $(REPORT_EXPERIMENTS) $(if $(filter 1,$(LONG)),$(LONG_EXPERIMENTS))
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
@@ -88,14 +94,14 @@ help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
-	@echo "make reproduce  run every experiment at PRESET=$(PRESET) on the local runner, then make report"
+	@echo "make reproduce  run the study at PRESET=$(PRESET) on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
 	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
 	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/<machine>/tables/bench_PRESET.md"
 	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
 	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
-	@echo "variables: PRESET=quick|paper RUNNER=local|slurm EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
+	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
 	@echo "make gpu-import ARCHIVE=FILE   the records of a kit's archive into results/<its machine>/"
 	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"

@@ -176,6 +176,6 @@ def test_reproduce_without_rrv_scenes_ends_well_and_names_what_it_skipped(tmp_pa
             timeout=900)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     tail = p.stdout[p.stdout.rindex("run-local: summary"):]
-    assert "skipped, no RRV scenes (1): figure42/0" in tail and "0 failed" in tail and "make scenes" in tail
+    assert "skipped, no RRV scenes (2): formfactors/1 figure42/0" in tail and "0 failed" in tail and "make scenes" in tail
     report = (tmp_path / "results" / "report" / "no-rrv" / "REPORT-ci.md").read_text()
     assert "| figure42 | 1 | no RRV scenes |" in report and "lack scenes 3 and 4" in report
