@@ -117,7 +117,12 @@ $(BUILD)/gen/build_info.inc: FORCE
 	   echo '#define HPCGI_CXXFLAGS "$(CXXFLAGS) $(DEFS)"'; \
 	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
 	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
-$(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc
+$(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc $(BUILD)/gen/record_schema.inc
+# The record's one definition (common/record.schema.json), built into the programs: its version and its list of
+# environment keys, the same that analysis/record.py reads from the file.
+$(BUILD)/gen/record_schema.inc: common/record.schema.json
+	@mkdir -p $(@D)
+	@{ printf 'R"HPCGISCHEMA('; cat $<; printf ')HPCGISCHEMA"\n'; } > $@
 # bin/radiosity web's page template, built into the program as a raw string literal.
 $(BUILD)/gen/web_page.inc: radiosity/web/page.html
 	@mkdir -p $(@D)

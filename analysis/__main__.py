@@ -40,6 +40,11 @@ def main():
         made.update(relight.write_all(a.preset))
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
+        if records.INVALID:  # reported where read; the tables were made without them
+            files = sorted({f"{f}:{n}" for f, n, _ in records.INVALID})
+            print(f"analysis: {len(files)} record(s) did not validate against common/record.schema.json and were left "
+                  f"out: {', '.join(files)}", file=sys.stderr)
+            return 1
         return 0
     if a.command == "report":
         print(f"analysis: wrote {report.write(a.preset)}")

@@ -218,13 +218,14 @@ def extremes(preset):
             if isinstance(b, list) else np.nan
         steps = math.log(r["params.tol"]) / math.log(rho) if r["params.method"] == "jacobi" else np.nan
         rows.append({"case": name, "method": r["params.method"], "precision": r["params.precision"],
-                     "status": r["result.status"], "iterations": r["result.iterations"], "log(tol)/log(rho)": steps,
+                     "status": r["result.status"], "exit": r["exit_status"], "iterations": r["result.iterations"],
+                     "log(tol)/log(rho)": steps,
                      "B": r["result.radiosity_max"][0] if isinstance(b, list) else np.nan, "E/(1-rho)": exact,
                      "error vs E/(1-rho)": far, "error vs converged F": r.get("result.error_vs_reference"),
                      "time (s)": r["times_s.solve"]})
     for _, r in df[df["app"] == "poisson"].iterrows():
         rows.append({"case": f"poisson N={int(r['params.n'])}", "method": "cg", "precision": r["params.precision"],
-                     "status": r["result.status"], "iterations": r["result.iterations"],
+                     "status": r["result.status"], "exit": r["exit_status"], "iterations": r["result.iterations"],
                      "B": np.nan, "E/(1-rho)": np.nan,
                      "error vs E/(1-rho)": np.nan, "error vs converged F": np.nan,
                      "true residual": r.get("result.true_rel_residual"), "max |u - u_h|": r.get("result.error_inf"),
@@ -233,7 +234,8 @@ def extremes(preset):
     return write("extremes", preset, f"Extremes ({preset})", table, [
         "Closed boxes: 192 patches, hemicube R = 256, whose rows sum to s within about 1e-5 of 1, so the exact answer "
         "of their F is E/(1 - rho s), and E/(1 - rho) is off by about rho (s - 1)/(1 - rho). Poisson: CG to 1e-6, "
-        "error against the exact solution u = sin^2(pi x) sin^2(pi y)."])
+        "error against the exact solution u = sin^2(pi x) sin^2(pi y). exit: the run's exit status (0 an answer, 3 "
+        "numerical failure, 4 not converged within --max-iter, 5 disagreed with its float64 check)."])
 
 
 def write_all(preset):

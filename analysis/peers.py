@@ -11,7 +11,6 @@ same problems, timed and recorded like them (schema hpcgi-record/1, --record/--j
 Threads: --threads sets OPENBLAS_NUM_THREADS and OMP_NUM_THREADS before NumPy loads. SciPy's sparse product is
 single-threaded whatever they say; that is what a user gets."""
 import argparse
-import json
 import os
 import struct
 import sys
@@ -62,9 +61,7 @@ def parse(argv):
     jac.add_argument("--way", choices=["gemm", "gemv"], default="gemm", help="F @ B (3 columns) or three F @ b")
     for p in (cg, jac):
         p.add_argument("--threads", type=positive(int), default=os.cpu_count(), help="BLAS threads (default: all)")
-        p.add_argument("--record", help="append one JSON record of this run to FILE (JSON Lines)")
-        p.add_argument("--json", action="store_true", help="print the record on stdout")
-        p.add_argument("--quiet", action="store_true", help="print nothing but errors (and the record with --json)")
+        record.add_options(p)
     return ap.parse_args(argv)
 
 
@@ -236,13 +233,11 @@ def main(argv=None):
     except UsageError as e:
         print(f"peers: {e}", file=sys.stderr)
         return 2
-    if a.json:
-        print(json.dumps(rec, separators=(",", ":")))
-    if a.record:
-        record.append(a.record, rec)
-    if rec.get("verify", {}).get("agreed") is False:
-        print(f"peers: the result disagrees with ours ({rec['verify']['max_rel_diff']:.2e})", file=sys.stderr)
-        return 3
+    record.emit(rec, a)
+    if rec.get("verify", {}).get("agreed") is False:  # exit status 5 as bin/radiosity's (common/errors.hpp)
+        print(f"peers: disagreed with its float64 check: the result differs from ours by "
+              f"{rec['verify']['max_rel_diff']:.2e}", file=sys.stderr)
+        return 5
     return 0
 
 

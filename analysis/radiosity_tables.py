@@ -6,8 +6,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.records import (load, machine, on, paper_table, plots_dir, reference, skipped, summarise,  # noqa: E402
-                              tables_dir, writing)
+from analysis.records import (load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
+                              skipped, summarise, tables_dir, writing)
 
 
 def run_time(df):
@@ -20,12 +20,16 @@ def run_time(df):
 
 
 def solves(experiment, preset):
+    """The solves of an experiment that are an answer (exit status 0); the others are named by threads_note."""
     df = load(experiment, preset)
     if df.empty:
         return df
     df = df[df["params.command"] == "solve"].copy()
+    note = no_answer_note(df)
+    df = df[df["exit_status"] == 0].copy()
     df["time_s"] = run_time(df)
     df["column"] = df.apply(column_of, axis=1)
+    df.attrs["no_answer"] = note
     return df
 
 
@@ -153,7 +157,9 @@ def build_table42(preset):
 def threads_note(df):
     th = sorted(set(df["params.threads"].dropna().astype(int)))
     hosts = sorted(set(df["provenance.host"]))
-    return f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s)."
+    note = df.attrs.get("no_answer", "")
+    return (f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s)."
+            + (f" {note}" if note else ""))
 
 
 def aos_soa(name, preset, layout, columns, extra=()):

@@ -10,13 +10,29 @@ import subprocess
 import time
 from pathlib import Path
 
-SCHEMA = "hpcgi-record/1"
 ROOT = Path(__file__).resolve().parent.parent
-# The environment that decides threads and placement, and the harness's case identifiers (as record.cpp keeps).
-ENV_KEYS = ("OMP_NUM_THREADS", "OMP_PROC_BIND", "OMP_PLACES", "OPENBLAS_NUM_THREADS", "SLURM_JOB_ID",
-            "SLURM_ARRAY_JOB_ID", "SLURM_ARRAY_TASK_ID", "SLURM_JOB_PARTITION", "SLURM_CLUSTER_NAME",
-            "SLURM_NTASKS", "SLURM_JOB_NODELIST", "HPCGI_EXPERIMENT", "HPCGI_PRESET", "HPCGI_CASE", "HPCGI_REPEAT",
-            "HPCGI_MACHINE")
+# The record's one definition (JSON Schema), which common/record.cpp builds in: its version and the environment keys
+# a record keeps (what decides threads and placement, and the harness's case identifiers).
+SCHEMA_FILE = ROOT / "common" / "record.schema.json"
+DEFINITION = json.loads(SCHEMA_FILE.read_text())
+SCHEMA = DEFINITION["$id"]
+ENV_KEYS = tuple(DEFINITION["properties"]["provenance"]["properties"]["env"]["propertyNames"]["enum"])
+
+_validator = []
+
+
+def validate(rec):
+    """What is wrong with a record against common/record.schema.json (its first error, with where), or None.
+    Needs the package jsonschema (requirements.txt)."""
+    if not _validator:
+        import jsonschema
+        _validator.append(jsonschema.Draft202012Validator(DEFINITION))
+    import jsonschema.exceptions
+    err = jsonschema.exceptions.best_match(_validator[0].iter_errors(rec))
+    if err is None:
+        return None
+    where = "/".join(str(p) for p in err.absolute_path) or "the record"
+    return f"{where}: {err.message}"
 
 
 def _git(*args):
@@ -81,3 +97,18 @@ def append(path, rec):
             raise
     finally:
         os.close(fd)  # releases the lock
+
+
+def add_options(parser):
+    """--record FILE, --json and --quiet, as every program of the project takes them (common/cli.hpp)."""
+    parser.add_argument("--record", help="append one JSON record of this run to FILE (JSON Lines)")
+    parser.add_argument("--json", action="store_true", help="print the record on stdout")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors (and the record with --json)")
+
+
+def emit(rec, args):
+    """The end of every run that makes a record: printed with --json, appended to --record's file."""
+    if args.json:
+        print(json.dumps(rec, separators=(",", ":")), flush=True)
+    if args.record:
+        append(args.record, rec)

@@ -8,10 +8,13 @@ import contextlib
 import importlib.util
 import json
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from analysis.record import validate
 
 ROOT = Path(__file__).resolve().parent.parent
 # Records, tables and plots live in $RESULTS (default results/), the report's published numbers in results/paper.
@@ -88,15 +91,27 @@ def report_dir():
 SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
 
 
-def read_jsonl(path):
-    """The records of one file; a line that does not parse is an error (appends are atomic, so none should)."""
+# (file, line, what) of every record that did not validate since the program started: left out, and reported.
+INVALID = []
+
+
+def read_jsonl(path, records=True):
+    """The records of one file; a line that does not parse is an error (appends are atomic, so none should). With
+    records=True each is checked against the schema: one that does not validate is reported on stderr with its file
+    and line, kept in INVALID, and left out (never silently used)."""
     rows = []
     for n, line in enumerate(Path(path).read_text().splitlines(), 1):
         if line.strip():
             try:
-                rows.append(json.loads(line))
+                rec = json.loads(line)
             except json.JSONDecodeError as e:
                 raise ValueError(f"{path}:{n}: not a JSON record: {e}") from e
+            wrong = validate(rec) if records else None
+            if wrong:
+                INVALID.append((str(path), n, wrong))
+                print(f"analysis: {path}:{n}: not a valid hpcgi-record/1 record, left out: {wrong}", file=sys.stderr)
+                continue
+            rows.append(rec)
     return rows
 
 
@@ -120,16 +135,54 @@ def load(experiment, preset=None, history=False):
             rec["file"] = str(f)
             rows.append(rec)
     df = pd.json_normalize(rows) if rows else pd.DataFrame()
+    if not df.empty:
+        df["exit_status"] = df.apply(exit_status, axis=1).astype(int)
     if "params.scene" in df.columns:
         df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name) if isinstance(s, str) else None)
     return df if history else newest(df)
+
+
+# The exit statuses of common/errors.hpp that a record can carry: every run but 0 is no answer.
+NO_ANSWER = {3: "numerical failure", 4: "not converged within --max-iter", 5: "disagreed with its float64 check"}
+FAILED = ("breakdown", "nonfinite", "divergent", "stagnant")
+
+
+def exit_status(row):
+    """A record's exit status: result.exit_status where the record has it, else (records made before it was
+    recorded) what its status and float64 check say: 3 failed, 4 max_iter, 5 disagreed, 0 an answer."""
+    s = row.get("result.exit_status")
+    if s is not None and not (isinstance(s, float) and np.isnan(s)):
+        return int(s)
+    status = row.get("result.status")
+    if status in FAILED:
+        return 3
+    if status == "max_iter":
+        return 4
+    return 5 if row.get("verify.agreed") is False else 0
+
+
+def no_answer_note(df):
+    """One sentence naming the runs of `df` that are no answer (exit status 3, 4 or 5), which the tables leave out
+    of their medians; empty when every run is an answer."""
+    if df.empty or "exit_status" not in df:
+        return ""
+    bad = df[df["exit_status"] != 0]
+    if bad.empty:
+        return ""
+    parts = []
+    for code, g in bad.groupby("exit_status"):
+        what = ", ".join(sorted({" ".join(str(a) for a in r["argv"][1:] if a not in ("--quiet",))
+                                 if isinstance(r.get("argv"), list) else str(r.get("provenance.env.HPCGI_CASE"))
+                                 for _, r in g.head(3).iterrows()}))
+        parts.append(f"{len(g)} with exit status {int(code)} ({NO_ANSWER.get(int(code), 'unknown')}; e.g. {what})")
+    return f"No answer, left out of the numbers above: {'; '.join(parts)}."
 
 
 def skipped(experiment, preset):
     """Cases the runner skipped on the current machine (a GPU case on a machine without one, a case of RRV's scenes
     where there were none) and that have no record since, as a frame with case, host, reason."""
     f = machine_dir() / experiment / f"{preset}.skipped"
-    s = pd.DataFrame(read_jsonl(f)) if f.exists() else pd.DataFrame(columns=["case", "host", "utc", "reason"])
+    s = pd.DataFrame(read_jsonl(f, records=False)) if f.exists() else pd.DataFrame(columns=["case", "host", "utc", "reason"])
     done = load(experiment, preset, history=True)
     if len(s) and not done.empty and "provenance.env.HPCGI_CASE" in done:
         s = s[~s["case"].isin(set(done["provenance.env.HPCGI_CASE"].dropna()))]

@@ -8,7 +8,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.radiosity_tables import emit, no_gpu_note, threads_note  # noqa: E402
-from analysis.records import load, machine, on, paper_table, plots_dir, reference, summarise, writing  # noqa: E402
+from analysis.records import (load, machine, no_answer_note, on, paper_table, plots_dir, reference, summarise,  # noqa: E402
+                              writing)
 
 GPU = ("cublas1", "cublas2", "cuda")
 
@@ -58,7 +59,9 @@ def ours(preset):
     df = load("table41", preset)
     if df.empty:
         return df, df
-    df = df[df["result.status"] == "converged"].copy()
+    note = no_answer_note(df)
+    df = df[(df["result.status"] == "converged") & (df["exit_status"] == 0)].copy()
+    df.attrs["no_answer"] = note
     df["column"] = df.apply(column, axis=1)
     df["time_s"] = df["times_s.solve"] + df["times_s.setup"]
     return df, summarise(df, ["params.n", "column"], "time_s").rename(columns={"params.n": "n"})

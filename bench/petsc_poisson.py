@@ -16,7 +16,6 @@ Debian's petsc4py (python3-petsc4py, `make deps`) runs only under /usr/bin/pytho
 PETSC_DIR=/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real when Python starts (it restarts itself with it). Bad arguments: exit 2 with
 one line on stderr. The record (rank 0 only) follows analysis/record.py's schema, app "peer"."""
 import argparse
-import json
 import os
 import sys
 import time
@@ -47,9 +46,7 @@ def parse(argv):
     ap.add_argument("--pc", choices=sorted(PCS), default="none", help="preconditioner (default none)")
     ap.add_argument("--tol", type=positive(float), default=1e-6, help="relative residual tolerance (default 1e-6)")
     ap.add_argument("--max-iter", type=positive(int), help="iteration limit (default max(1000, 4N), as bin/poisson)")
-    ap.add_argument("--record", help="append one JSON record of this run to FILE (JSON Lines)")
-    ap.add_argument("--json", action="store_true", help="print the record on stdout")
-    ap.add_argument("--quiet", action="store_true", help="print nothing but errors (and the record with --json)")
+    record.add_options(ap)
     return ap.parse_args(argv)
 
 
@@ -152,10 +149,7 @@ def main(argv):
               f"relative residual {true_rel:.3e}, ||u - u_h||_inf = {err:.4e}\n  time: setup {setup_s:.3f} s, "
               f"pc setup {pc_setup_s:.3f} s, solve {solve_s:.3f} s ({1e3 * rec['times_s']['per_iteration']:.4g} "
               f"ms/iteration)")
-    if a.json:
-        print(json.dumps(rec))
-    if a.record:
-        record.append(a.record, rec)
+    record.emit(rec, a)
     return 0
 
 

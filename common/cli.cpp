@@ -11,8 +11,15 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/one_line.hpp"
+#include "common/record.hpp"
 
 namespace hpcgi {
+
+void add_record_options(CLI::App* app, record::Options& out) {
+  app->add_option("--record", out.record_path, "append one JSON record of this run to FILE (JSON Lines)");
+  app->add_flag("--json", out.json, "print the record on stdout");
+  app->add_flag("--quiet", out.quiet, "print nothing but errors (and the record with --json)");
+}
 
 bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code) {
   try {
@@ -152,6 +159,10 @@ int run_main(const std::string& program, const std::function<int()>& body) {
     return report(program, e, "", kExitUsage);
   } catch (const NumericalError& e) {
     return report(program, e, "numerical failure: ", kExitNumerical);
+  } catch (const NotConvergedError& e) {
+    return report(program, e, "not converged: ", kExitNotConverged);
+  } catch (const DisagreedError& e) {
+    return report(program, e, "disagreed with its float64 check: ", kExitDisagreed);
   } catch (const std::exception& e) {
     return report(program, e, "error: ", kExitRuntime);
   }

@@ -1,5 +1,6 @@
 // Command-line conventions of every program: CLI11 for parsing, "--help" exits 0, any parse error exits 2 with
-// one line on stderr, UsageError exits 2, NumericalError exits 3, anything else exits 1.
+// one line on stderr, UsageError exits 2, NumericalError 3, NotConvergedError 4, DisagreedError 5, anything else
+// exits 1 (common/errors.hpp).
 #pragma once
 #include <CLI/CLI.hpp>
 
@@ -8,6 +9,12 @@
 #include <string>
 
 namespace hpcgi {
+
+namespace record {
+struct Options;
+}
+// --record FILE, --json and --quiet, the same in every program (common/record.hpp: record::emit).
+void add_record_options(CLI::App* app, record::Options& out);
 
 // Runs body() and turns the project's exceptions into exit statuses and one-line messages.
 int run_main(const std::string& program, const std::function<int()>& body);

@@ -9,9 +9,15 @@
 
 #include <string>
 
+#include "common/errors.hpp"
+
 namespace hpcgi::record {
 
-inline constexpr const char* kSchema = "hpcgi-record/1";
+// The record's one definition, common/record.schema.json (JSON Schema), built into the program: every producer's
+// record is checked against it by the tests, and every record analysis/ reads.
+const nlohmann::json& schema();
+// Its version, "hpcgi-record/1" (the schema's "$id"), which every record carries as "schema".
+std::string schema_version();
 
 // What built this binary and where it runs: git commit and dirty flag, compiler and flags, CPU model, host,
 // OpenMP threads, Slurm job/array ids, UTC time. Backends add their own (MPI library, GPU) in backend_info.
@@ -23,6 +29,20 @@ void set_command_line(int argc, char** argv);
 
 // A new record with schema, app, argv and provenance filled in.
 nlohmann::json make(const std::string& app);
+
+// Where a run's record goes: --record FILE (appended), --json (printed on stdout), --quiet (nothing else printed).
+// Every program takes the three flags from hpcgi::add_record_options (common/cli.hpp).
+struct Options {
+  std::string record_path;
+  bool json = false;
+  bool quiet = false;
+};
+
+// The end of every run that makes a record: printed with --json, appended to --record's file.
+void emit(const nlohmann::json& rec, const Options& out);
+
+// The run's outcome in its record: result.exit_status (common/errors.hpp) and result.exit_reason (null for 0).
+void set_outcome(nlohmann::json& rec, const Outcome& outcome);
 
 // Appends `rec` as one line to `path` (parent folders are created). The line is written by one write() under an
 // exclusive flock, so concurrent writers never interleave; if the write fails the file is cut back to its old

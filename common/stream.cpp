@@ -29,13 +29,11 @@
 
 namespace {
 
-struct Args {
+struct Args : hpcgi::record::Options {
   long size = 1L << 25;  // elements per array: 256 MiB of doubles, 8 times a 32 MiB last-level cache
   int trials = 20;
   int threads = 0;
-  std::string record_path;
   std::string device = "cpu";
-  bool json = false, quiet = false;
 };
 
 struct Stats {
@@ -149,8 +147,7 @@ int run(const Args& a) {
     std::printf("  read  sum(a):      %.2f GB/s (median %.2f GB/s)\n", read_bytes / rd.best / 1e9,
                 read_bytes / rd.median / 1e9);
   }
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  hpcgi::record::emit(rec, a);
   return 0;
 }
 
@@ -171,9 +168,7 @@ int main(int argc, char** argv) {
   app.add_option("--device", a.device, "cpu: the CPU's OpenMP threads; gpu: the GPU's memory (CUDA events)")
       ->check(CLI::IsMember({"cpu", "gpu"}))
       ->capture_default_str();
-  app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
-  app.add_flag("--json", a.json, "print the record on stdout");
-  app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+  hpcgi::add_record_options(&app, a);
   app.footer("\nExamples:\n  OMP_PROC_BIND=close OMP_PLACES=cores bin/stream --threads 2\n  bin/stream --device gpu\n");
   int code = 0;
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;

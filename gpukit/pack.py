@@ -106,6 +106,7 @@ def fill(a, kit):
         copy(ROOT / f, kit / f)
     for f in sorted((ROOT / "analysis").glob("*.py")):
         copy(f, kit / "analysis" / f.name)
+    copy(ROOT / "common" / "record.schema.json", kit / "common" / "record.schema.json")  # analysis/record.py reads it
     # pytest in the kit: no cache folder inside the kit, temporary files under the output folder (run passes
     # --basetemp), the reasons of skips printed.
     (kit / "pytest.ini").write_text("[pytest]\ntestpaths = tests\npythonpath = .\naddopts = -rs -p no:cacheprovider\n")

@@ -14,8 +14,10 @@ __global__ void axpby_kernel(long len, T a, const T* __restrict__ x, T b, T* __r
 }
 
 template <class T>
-class Cublas1 final : public GpuBase<T> {
-  using B = GpuBase<T>;
+class Cublas1 final : public CublasBase<T> {
+  using B = CublasBase<T>;
+  using B::blas_;
+  using B::dot;
 
  public:
   explicit Cublas1(const Config& cfg) : B(cfg, "cublas1") {}
@@ -31,25 +33,14 @@ class Cublas1 final : public GpuBase<T> {
   }
   void calc_p(double beta) override { axpby(1.0, B::r_.get(), beta, B::p_.get()); }
   int vectors_per_iteration() const override { return 14; }
-  std::map<std::string, std::string> info() const override {
-    auto i = B::info();
-    i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";
-    return i;
-  }
 
  private:
-  double dot(const T* a, const T* b) {
-    double out = 0;
-    CUBLAS_CHECK(blas_dot(blas_.get(), B::blas_len(), a, b, &out));
-    return out;
-  }
   void axpby(double a, const T* x, double b, T* y) {
     const long len = B::size_;
     axpby_kernel<T><<<static_cast<unsigned>((len + kBlock - 1) / kBlock), kBlock>>>(len, static_cast<T>(a), x,
                                                                                       static_cast<T>(b), y);
     CUDA_CHECK_LAUNCH();
   }
-  hpcgi::BlasHandle blas_;
 };
 
 }  // namespace

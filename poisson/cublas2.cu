@@ -7,8 +7,10 @@ namespace poisson {
 namespace {
 
 template <class T>
-class Cublas2 final : public GpuBase<T> {
-  using B = GpuBase<T>;
+class Cublas2 final : public CublasBase<T> {
+  using B = CublasBase<T>;
+  using B::blas_;
+  using B::dot;
 
  public:
   explicit Cublas2(const Config& cfg) : B(cfg, "cublas2") {}
@@ -27,19 +29,6 @@ class Cublas2 final : public GpuBase<T> {
     CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), 1.0, B::r_.get(), B::p_.get()));
   }
   int vectors_per_iteration() const override { return 16; }
-  std::map<std::string, std::string> info() const override {
-    auto i = B::info();
-    i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";
-    return i;
-  }
-
- private:
-  double dot(const T* a, const T* b) {
-    double out = 0;
-    CUBLAS_CHECK(blas_dot(blas_.get(), B::blas_len(), a, b, &out));
-    return out;
-  }
-  hpcgi::BlasHandle blas_;
 };
 
 }  // namespace

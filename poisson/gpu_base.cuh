@@ -141,4 +141,24 @@ inline cublasStatus_t blas_scal(cublasHandle_t h, int n, double a, float* x) {
   return cublasSscal(h, n, &af, x, 1);
 }
 
+// GpuBase with a cuBLAS handle and the dot through it: the report's two cuBLAS backends (cublas1, cublas2).
+template <class T>
+class CublasBase : public GpuBase<T> {
+ public:
+  CublasBase(const Config& cfg, const std::string& name) : GpuBase<T>(cfg, name) {}
+  std::map<std::string, std::string> info() const override {
+    auto i = GpuBase<T>::info();
+    i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";
+    return i;
+  }
+
+ protected:
+  double dot(const T* a, const T* b) {
+    double out = 0;
+    CUBLAS_CHECK(blas_dot(blas_.get(), this->blas_len(), a, b, &out));
+    return out;
+  }
+  hpcgi::BlasHandle blas_;
+};
+
 }  // namespace poisson

@@ -25,15 +25,14 @@
 
 namespace {
 
-struct Args {
+struct Args : hpcgi::record::Options {
   poisson::Config cfg;
   std::string variant;  // empty: the backend's default (poisson::default_variant)
   double tol = 1e-6;
   long max_iter = 0;
+  long steps = 0;  // > 0: exactly this many iterations, no tolerance (a benchmark's time per iteration)
   std::string precision = "double";
-  std::string record_path, solution_path;
-  bool json = false;
-  bool quiet = false;
+  std::string solution_path;
   bool check_symmetry = false;
 };
 
@@ -47,6 +46,19 @@ void write_solution(const std::string& path, const std::vector<double>& x) {
   out.commit();
 }
 
+// The exit status of a run (common/errors.hpp): 0 converged or the fixed steps done, 3 broken down, 4 stopped at
+// max_iter.
+hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter) {
+  if (r.status == "breakdown") return {hpcgi::kExitNumerical, r.breakdown};
+  if (r.status == "max_iter") {
+    char why[160];
+    std::snprintf(why, sizeof why, "relative residual %.3e after %ld iterations (--max-iter %ld), above --tol %.1e",
+                  r.rel_residual, r.iterations, max_iter, tol);
+    return {hpcgi::kExitNotConverged, why};
+  }
+  return {};
+}
+
 template <class T>
 int solve(const Args& a) {
   hpcgi::Timer total;
@@ -57,7 +69,9 @@ int solve(const Args& a) {
   auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
   // Before the solve: the check overwrites r and z, which the solve's init resets.
   const double asymmetry = a.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
-  const long max_iter = a.max_iter > 0 ? a.max_iter : default_max_iter(a.cfg.n);
+  const bool fixed = a.steps > 0;
+  const long max_iter = fixed ? a.steps : a.max_iter > 0 ? a.max_iter : default_max_iter(a.cfg.n);
+  const double tol = fixed ? 0.0 : a.tol;  // fixed steps: only an exact zero residual stops them early
 
   hpcgi::Timer since_print;
   auto progress = [&](long it, double rel) {
@@ -66,10 +80,12 @@ int solve(const Args& a) {
       since_print.reset();
     }
   };
-  const poisson::CgResult r = poisson::run_config(*k, a.cfg, a.tol, max_iter, progress);
+  poisson::CgResult r = poisson::run_config(*k, a.cfg, tol, max_iter, progress);
+  if (fixed && r.status == "max_iter") r.status = "steps_done";
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   const auto info = k->info();
-  if (!root) return r.status == "breakdown" ? hpcgi::kExitNumerical : hpcgi::kExitOk;
+  const hpcgi::Outcome outcome = outcome_of(r, a.tol, max_iter);
+  if (!root) return outcome.status;  // rank 0 reports; the others end with the same status
 
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
   const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
@@ -79,7 +95,8 @@ int solve(const Args& a) {
   nlohmann::json rec = hpcgi::record::make("poisson");
   rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"variant", a.cfg.variant},
                    {"precision", a.precision},
-                   {"tol", a.tol},         {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
+                   {"tol", fixed ? nlohmann::json() : nlohmann::json(a.tol)},
+                   {"steps", a.steps},     {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
                    {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
   rec["params"]["precond"] = a.cfg.precond;
   if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
@@ -88,10 +105,11 @@ int solve(const Args& a) {
                    {"iterations", r.iterations},
                    {"rel_residual", r.rel_residual},
                    {"true_rel_residual", r.true_rel_residual},
-                   {"true_residual_meets_tol", r.true_rel_residual <= a.tol},
+                   {"true_residual_meets_tol", fixed ? nlohmann::json() : nlohmann::json(r.true_rel_residual <= a.tol)},
                    {"error_inf", r.error_inf},
                    {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
   if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
+  hpcgi::record::set_outcome(rec, outcome);
   const std::vector<long> sizes = a.cfg.precond == "mg" && pre ? pre->mg_sizes() : std::vector<long>();
   if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
   if (a.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
@@ -117,16 +135,16 @@ int solve(const Args& a) {
     if (a.check_symmetry)
       std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", asymmetry);
     if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
-    if (r.status == "converged" && r.true_rel_residual > a.tol)
+    if (!fixed && r.status == "converged" && r.true_rel_residual > a.tol)
       std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
                   "(precision %s cannot represent x more accurately)\n",
                   r.true_rel_residual, a.tol, a.precision.c_str());
   }
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
-  // The solution of a broken-down run is no solution: only its record is written (as bin/radiosity does).
-  if (!a.solution_path.empty() && r.status != "breakdown") write_solution(a.solution_path, x);
-  if (r.status == "breakdown") throw hpcgi::NumericalError(r.breakdown);
+  hpcgi::record::emit(rec, a);
+  // A run that is no answer (broken down, or stopped at --max-iter) writes no solution: only its record (as
+  // bin/radiosity does).
+  if (!a.solution_path.empty() && outcome.status == hpcgi::kExitOk) write_solution(a.solution_path, x);
+  hpcgi::finish(outcome);
   return hpcgi::kExitOk;
 }
 
@@ -153,8 +171,12 @@ int main(int argc, char** argv) {
       "poisson"};
   app.add_option("--n", a.cfg.n, "interior points per dimension")->check(hpcgi::integer_in(1, 1LL << 20))->capture_default_str();
   app.add_option("--backend", a.cfg.backend, "serial | openmp | mpi | cublas1 | cublas2 | cuda")->capture_default_str();
-  app.add_option("--tol", a.tol, "relative residual tolerance")->check(hpcgi::positive_finite())->capture_default_str();
-  app.add_option("--max-iter", a.max_iter, "iteration limit (default max(1000, 4N))")->check(hpcgi::integer_in(1, 1LL << 40));
+  CLI::Option* steps = app.add_option("--steps", a.steps, "exactly K iterations, no tolerance (the time per iteration; "
+                                      "status steps_done)")->check(hpcgi::integer_in(1, 1LL << 40));
+  app.add_option("--max-iter", a.max_iter, "iteration limit with --tol (default max(1000, 4N)); reaching it ends with "
+                 "exit status 4")->check(hpcgi::integer_in(1, 1LL << 40))->excludes(steps);
+  app.add_option("--tol", a.tol, "relative residual tolerance")->check(hpcgi::positive_finite())->capture_default_str()
+      ->excludes(steps);
   app.add_option("--precision", a.precision, "precision of vectors and stencil (dots accumulate in double)")
       ->check(CLI::IsMember({"double", "float"}))->capture_default_str();
   app.add_option("--variant", a.variant,
@@ -173,13 +195,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
       ->check(hpcgi::integer_in(1, 4096));
-  app.add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
+  hpcgi::add_record_options(&app, a);
   app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");
-  app.add_flag("--json", a.json, "print the record on stdout");
-  app.add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
   app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
              "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n"
-             "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n");
+             "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n\n" + hpcgi::exit_status_help() +
+             "(bin/poisson has no float64 check: status 5 is bin/radiosity's.)\n");
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;

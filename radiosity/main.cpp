@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
                "  mpirun -np 4 bin/radiosity solve radiosity/scenes/scene2.xml --ff scene2.ff --backend mpi\n"
                "A form-factor file is the same whoever wrote it: any number of ranks, or one process, reads it.",
                "radiosity"};
+  app.footer(hpcgi::exit_status_help());
   app.require_subcommand(1);
   radiosity::app::InfoArgs info;
   radiosity::app::FormFactorArgs ff;

@@ -62,3 +62,28 @@ def requires_gpu():
     reason = gpu_absent_reason()
     if reason:
         pytest.skip(reason)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def every_record_validates(tmp_path_factory):
+    """After the whole session: every record file a test left in its temporary folders (*.jsonl) holds records that
+    validate against common/record.schema.json; one that does not fails the session, named with its file and line."""
+    yield
+    try:
+        from analysis.record import validate
+        import jsonschema  # noqa: F401  (the project's venv has it; a GPU kit's bare Python may not)
+    except ImportError as e:
+        print(f"\nconftest: the records were not checked against the schema: {e}")
+        return
+    bad = []
+    for f in sorted(tmp_path_factory.getbasetemp().rglob("*.jsonl")):
+        for n, line in enumerate(f.read_text(errors="replace").splitlines(), 1):
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a test's own non-record or half line: the test that made it judges it
+            if isinstance(rec, dict) and "schema" in rec:
+                wrong = validate(rec)
+                if wrong:
+                    bad.append(f"{f}:{n}: {wrong}")
+    assert not bad, "records that do not validate against common/record.schema.json:\n" + "\n".join(bad[:20])

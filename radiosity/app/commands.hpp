@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "common/files.hpp"
+#include "common/record.hpp"
 
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
@@ -14,13 +15,10 @@
 namespace radiosity::app {
 
 // What every subcommand that reads a scene shares.
-struct SceneArgs {
+struct SceneArgs : hpcgi::record::Options {  // --record, --json, --quiet
   std::string scene;
   LoadOptions load;
   int threads = 0;
-  std::string record_path;
-  bool json = false;
-  bool quiet = false;
   std::string max_memory_per_rank;  // formfactors, solve: what one process (MPI rank) may hold, e.g. 64M
   double memory_limit() const;      // its bytes, 0 when not given
 };

@@ -263,8 +263,7 @@ int run_formfactors(const FormFactorArgs& a) {
     std::printf("  time: load %.3f s, hemicube %.3f s (%.1f patches/s), save %.3f s -> %s\n", load_s, slowest_s,
                 double(n) / slowest_s, save_s, a.out.c_str());
   }
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  hpcgi::record::emit(rec, a);
   return 0;
 }
 

@@ -235,8 +235,7 @@ int run_relight(const RelightArgs& a) {
     rec["params"]["passes"] = a.passes;
     bench_product(a, m, frame_view, rec);
     rec["times_s"] = {{"load", load_s}, {"ff_load", ff_load_s}, {"total", total.seconds()}};
-    if (a.json) std::cout << rec.dump() << std::endl;
-    if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+    hpcgi::record::emit(rec, a);
     return 0;
   }
 
@@ -311,8 +310,7 @@ int run_relight(const RelightArgs& a) {
         res.rel_residual = relative_residual(sys, res.B);
         res.status = SolveStatus::max_iter;
       }
-      if (res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
-          res.status == SolveStatus::divergent)
+      if (failed(res.status))
         throw hpcgi::NumericalError("frame " + std::to_string(k) + ": " + to_string(res.status) + ": " + res.detail);
       const double r = *std::max_element(res.rel_residual.begin(), res.rel_residual.end());
       fr["kind"] = "solved";
@@ -416,8 +414,7 @@ int run_relight(const RelightArgs& a) {
     if (checked) std::printf("  worst error against a cold float64 solve over %ld checked frames: %.3e\n", checked, worst_error);
     if (!pngs.empty()) std::printf("  frames rendered: %s .. %s\n", pngs.front().c_str(), pngs.back().c_str());
   }
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  hpcgi::record::emit(rec, a);
   return 0;
 }
 

@@ -23,9 +23,7 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a) {
                 "accept reflectivity >= 1 in a channel (RRV's room3.xml has lossless bulb barrels)");
   cmd->add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(hpcgi::integer_in(1, 4096));
-  cmd->add_option("--record", a.record_path, "append one JSON record of this run to FILE (JSON Lines)");
-  cmd->add_flag("--json", a.json, "print the record on stdout");
-  cmd->add_flag("--quiet", a.quiet, "print nothing but errors (and the record with --json)");
+  hpcgi::add_record_options(cmd, a);
 }
 
 void add_memory_option(CLI::App* cmd, SceneArgs& a) {
@@ -125,8 +123,7 @@ int run_info(const InfoArgs& a) {
                         e.uniform_reflectivity ? "" : " (its first patch's; others differ)");
         }
   }
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  hpcgi::record::emit(rec, a);
   return 0;
 }
 

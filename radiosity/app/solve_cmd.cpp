@@ -91,6 +91,27 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
   return v;
 }
 
+// The exit status of a solve (common/errors.hpp): 3 its numbers went wrong, 4 it stopped at --max-iter, 5 its
+// float64 check (v: null when not made) disagreed, else 0.
+hpcgi::Outcome outcome_of(const SolveResult& res, const SolveConfig& cfg, const Verification* v) {
+  char why[256];
+  if (failed(res.status))  // a stagnant run's detail says it all ("no solution: ...")
+    return {hpcgi::kExitNumerical,
+            res.status == SolveStatus::stagnant ? res.detail : std::string(to_string(res.status)) + ": " + res.detail};
+  if (res.status == SolveStatus::max_iter) {
+    std::snprintf(why, sizeof why, "%s stopped at --max-iter %ld with the largest relative residual %.3e, above --tol %.1e",
+                  cfg.method.c_str(), cfg.max_iter,
+                  *std::max_element(res.rel_residual.begin(), res.rel_residual.end()), cfg.tol);
+    return {hpcgi::kExitNotConverged, why};
+  }
+  if (v && !v->agreed) {
+    std::snprintf(why, sizeof why, "max relative difference %.3e from the float64 reference, above the bound %.1e",
+                  v->max_rel_diff, v->bound);
+    return {hpcgi::kExitDisagreed, why};
+  }
+  return {};
+}
+
 const SolveBackend& find_backend(const std::string& name) {
   for (const auto& b : solve_backends())
     if (b.name == name) return b;
@@ -145,6 +166,7 @@ nlohmann::json history_json(const SolveResult& res, const SolveConfig& cfg) {
 
 void add_solve(CLI::App& app, SolveArgs& a) {
   CLI::App* cmd = app.add_subcommand("solve", "solve for the radiosity of a scene whose form factors are in a file");
+  cmd->footer(hpcgi::exit_status_help());
   add_scene_options(cmd, a);
   add_memory_option(cmd, a);
   cmd->add_option("--ff", a.ff, "form-factor file written by `bin/radiosity formfactors` for this scene")
@@ -454,8 +476,7 @@ int run_solve(const SolveArgs& a) {
   hpcgi::comm::agreed([&] {
     if (snapshot_error) std::rethrow_exception(snapshot_error);
   });
-  const bool failed = res.status == SolveStatus::breakdown || res.status == SolveStatus::nonfinite ||
-                      res.status == SolveStatus::divergent;
+  const bool failed = radiosity::failed(res.status);
   Verification v;
   double error = 0;
   if (a.verify && !failed) {
@@ -465,6 +486,7 @@ int run_solve(const SolveArgs& a) {
     v = hpcgi::comm::agreed([&] { return verify(sys, cfg, res, same_matrix ? &ref : nullptr); });
     error = max_rel_diff(res.B, ref.B);
   }
+  const hpcgi::Outcome outcome = outcome_of(res, cfg, a.verify && !failed ? &v : nullptr);
   const double passes_bytes = res.matrix_bytes * static_cast<double>(res.matrix_passes);
   const bool gpu = res.backend_info.count("gpu") > 0;  // the GPU backends describe their GPU
   const bool hybrid = cfg.backend == "hybrid";
@@ -511,6 +533,7 @@ int run_solve(const SolveArgs& a) {
                    {"skipped_rows", skipped_rows},
                    {"matrix_storage_bytes", matrix_storage_bytes}};
   if (!res.detail.empty()) rec["result"]["detail"] = res.detail;
+  hpcgi::record::set_outcome(rec, outcome);
   if (cfg.history) rec["result"]["history"] = history_json(res, cfg);
   if (!failed) {  // the range of B, for scenes whose answer is known in closed form (a closed box: E / (1 - ρ))
     Rgb lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
@@ -580,8 +603,8 @@ int run_solve(const SolveArgs& a) {
   for (const auto& [key, value] : res.backend_info) info[key] = value;
   rec["backend_info"] = info;
 
-  if (!root) {  // rank 0 reports; the others only agree on a failure
-    if (failed) throw hpcgi::Agreed<hpcgi::NumericalError>(std::string(to_string(res.status)) + ": " + res.detail);
+  if (!root) {  // rank 0 reports; the others end with the same status
+    hpcgi::finish(outcome, true);
     return 0;
   }
   if (!a.quiet) {
@@ -623,18 +646,15 @@ int run_solve(const SolveArgs& a) {
                   res.backend_info.count("gpu") ? res.backend_info.at("gpu").c_str() : "?", res.upload_s,
                   res.transfer_s, res.transfer_bytes / 1e6, res.device_compute_s, res.host_compute_s);
   }
-  // A failed solve's radiosity (NaN, Inf or blown up) is no scene and no picture: only its record is written.
-  if (!failed && !a.output_xml.empty()) write_rrv_xml(a.output_xml, m, res.B);
-  if (!failed && !a.png.empty()) write_png(a.png, render(m, res.B, cam, width, height, ropt));
+  // A run that is no answer (failed, stopped at --max-iter, disagreed with its check) is no scene and no picture:
+  // only its record is written.
+  const bool answer = outcome.status == hpcgi::kExitOk;
+  if (answer && !a.output_xml.empty()) write_rrv_xml(a.output_xml, m, res.B);
+  if (answer && !a.png.empty()) write_png(a.png, render(m, res.B, cam, width, height, ropt));
   if (!a.quiet)
     for (const auto& f : snapshot_files) std::printf("  snapshot %s\n", f.c_str());
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
-  if (failed) {
-    const std::string what = std::string(to_string(res.status)) + ": " + res.detail;
-    if (dist) throw hpcgi::Agreed<hpcgi::NumericalError>(what);
-    throw hpcgi::NumericalError(what);
-  }
+  hpcgi::record::emit(rec, a);
+  hpcgi::finish(outcome, dist);
   return 0;
 }
 

@@ -151,8 +151,7 @@ int run_web(const WebArgs& a) {
   if (!a.quiet)
     std::printf("web: %s, %zu patches, %zu lights (%s): %s, %.2f MB (basis %s)\n", a.scene.c_str(), n, lights.size(),
                 name_list(lights).c_str(), a.out.c_str(), double(page.size()) / 1e6, loaded ? "read" : "solved");
-  if (a.json) std::cout << rec.dump() << std::endl;
-  if (!a.record_path.empty()) hpcgi::record::append(a.record_path, rec);
+  hpcgi::record::emit(rec, a);
   return 0;
 }
 

@@ -81,8 +81,14 @@ const char* to_string(SolveStatus s) {
     case SolveStatus::breakdown: return "breakdown";
     case SolveStatus::nonfinite: return "nonfinite";
     case SolveStatus::divergent: return "divergent";
+    case SolveStatus::stagnant: return "stagnant";
   }
   return "unknown";
+}
+
+bool failed(SolveStatus s) {
+  return s == SolveStatus::breakdown || s == SolveStatus::nonfinite || s == SolveStatus::divergent ||
+         s == SolveStatus::stagnant;
 }
 
 // The GPU backends are listed in every build, so that asking for one where it was not built says why.

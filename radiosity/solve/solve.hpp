@@ -45,8 +45,12 @@ enum class SolveStatus {
   breakdown,   // BiCG-STAB: ρ = r̂·r, r̂·v or ω ≈ 0 (detail says which, where)
   nonfinite,   // a NaN or Inf in the iterates (or in the input)
   divergent,   // Jacobi (and original): the residual grew far past its start (divergence.hpp; detail says where)
+  stagnant,    // Jacobi, Gauss-Seidel, SOR with a tolerance: the residual stopped moving far above it (divergence.hpp;
+               //   detail starts "no solution: ")
 };
 const char* to_string(SolveStatus s);
+// Whether the run's numbers went wrong (breakdown, nonfinite, divergent, stagnant): its B is no answer, exit status 3.
+bool failed(SolveStatus s);
 
 struct SolveResult {
   std::vector<Rgb> B;             // the radiosity the run ends with (double, whatever the working precision)

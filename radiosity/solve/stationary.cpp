@@ -44,6 +44,7 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
     if (cfg.history) run.history.push_back(m);
   };
   Rgb first{0, 0, 0};  // the residual of b_0, which divergence is measured against
+  Stagnation stagnation(cfg.tol, cfg.precision == "double");
   for (long step = 1; step <= last; ++step) {
     // Jacobi: b_step - b_{step-1} = e - A b_{step-1}, so the residual of the previous iterate comes with the step
     // for O(n). Gauss-Seidel and SOR: the sweep sums every row against b_{step-1} as well and returns its residual.
@@ -78,6 +79,21 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
       keep(now);
       kept_last = true;
       break;
+    }
+    // A residual that no longer moves, far above the tolerance: no step will reach it (divergence.hpp).
+    if (!fixed) {
+      const std::string stuck = stagnation(step, res);
+      if (!stuck.empty()) {
+        run.status = SolveStatus::stagnant;
+        run.detail = stuck.substr(0, 13) + cfg.method + ": " + stuck.substr(13) +
+                     " (the iteration makes no progress: (I - ρF) B = E has no solution it can reach, as for a "
+                     "closed scene that loses no light)";
+        run.iterations = step - 1;  // b_{step-1}, whose residual it is
+        run.answer = cur;
+        keep(now);
+        kept_last = true;
+        break;
+      }
     }
     // A residual rule decides on b_{step-1}, a step rule on b_step.
     const IterateNorms& judged = rule.on_step() ? now : prev;

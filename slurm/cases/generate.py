@@ -115,7 +115,7 @@ def bench(preset, p):
     cg = [(256, None), (512, None), (1024, 200), (2048, 200)]
     e["bench-cg"] = ("Bench: Poisson CG per iteration, ours (both variants) and SciPy's sparse.linalg.cg", None, [
         line for n, cap in cg for line in (
-            *(f"bin/poisson --backend openmp --threads {t} --n {n} --variant {v}{f' --max-iter {cap}' if cap else ''}"
+            *(f"bin/poisson --backend openmp --threads {t} --n {n} --variant {v}{f' --steps {cap}' if cap else ''}"
               for v in ("onesweep", "classic")),
             f"{peer} scipy-cg --threads {t} --n {n}{f' --max-iter {cap}' if cap else ''}")])
     # MG-PCG against PETSc (CG, CG + hypre BoomerAMG, CG + GAMG: bench/petsc_poisson.py) on as many ranks as our
@@ -127,7 +127,7 @@ def bench(preset, p):
     e["bench-mg"] = ("Bench: MG-PCG to 1e-6 against PETSc CG, CG + hypre BoomerAMG and CG + GAMG; plain CG per "
                      "iteration against PETSc's CG", None, [
         f"bin/poisson --backend openmp --threads {t} --n 512", f"{petsc} --n 512 --pc none",
-        f"bin/poisson --backend openmp --threads {t} --n 2048 --max-iter 200", f"{petsc} --n 2048 --pc none --max-iter 200",
+        f"bin/poisson --backend openmp --threads {t} --n 2048 --steps 200", f"{petsc} --n 2048 --pc none --max-iter 200",
         *(line for n in (1024, 2048, 4096) for line in (
             f"{mg} --n {n}", f"{petsc} --n {n} --pc hypre", f"{petsc} --n {n} --pc gamg")),
         f"{mg} --n 8192"])

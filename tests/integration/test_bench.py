@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from conftest import BIN, ROOT, poisson, run
+from conftest import BIN, ROOT, run
 
 SCENES = ROOT / "radiosity" / "scenes"
 PEERS = [sys.executable, "-m", "analysis.peers"]
@@ -40,7 +40,11 @@ def test_stream_bad_arguments_exit_2_with_one_line(args):
 @pytest.mark.parametrize("n,cap", [(32, None), (64, 20)])
 def test_scipy_cg_takes_our_iterations_on_our_problem(tmp_path, n, cap):
     extra = ["--max-iter", str(cap)] if cap else []
-    _, ours = poisson("--n", n, "--backend", "serial", *extra)
+    # ours stopped by --max-iter is no answer (exit 4), with its record
+    mine = tmp_path / "ours.jsonl"
+    p = run([BIN / "poisson", "--n", n, "--backend", "serial", "--quiet", "--record", mine, *extra])
+    assert p.returncode == (4 if cap else 0), p.stderr
+    ours = json.loads(mine.read_text())
     path = tmp_path / "p.jsonl"
     p, rec = peer("scipy-cg", "--n", str(n), "--threads", "1", "--json", "--quiet", "--record", str(path), *extra)
     assert p.returncode == 0, p.stderr
@@ -80,11 +84,11 @@ def test_numpy_jacobi_agrees_with_our_steps(scene1, way):
     assert rec["params"]["patches"] == 1312 and rec["perf"]["matrix_passes"] == (4 if way == "gemm" else 12)
 
 
-def test_numpy_jacobi_with_other_steps_disagrees_and_exits_3(scene1):
+def test_numpy_jacobi_with_other_steps_disagrees_and_exits_5(scene1):
     ff, solved = scene1
     p, _ = peer("numpy-jacobi", str(SCENES / "scene1.xml"), "--ff", str(ff), "--solved", str(solved), "--steps", "5",
                 "--quiet")
-    assert p.returncode == 3 and "disagrees" in p.stderr
+    assert p.returncode == 5 and "disagreed with its float64 check" in p.stderr, p.stderr
 
 
 def test_numpy_jacobi_refuses_foreign_form_factors(tmp_path, scene1):
@@ -119,7 +123,7 @@ def test_bench_table_from_records(tmp_path):
     p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
     assert p.returncode == 0, p.stderr
     for args in (["--n", "2048", "--variant", "onesweep"], ["--n", "2048", "--variant", "classic"]):
-        p = run([BIN / "poisson", "--backend", "openmp", "--max-iter", "3", "--quiet", "--record",
+        p = run([BIN / "poisson", "--backend", "openmp", "--steps", "3", "--quiet", "--record",
                  res / "bench-cg/quick.jsonl", *args])
         assert p.returncode == 0, p.stderr
     p, _ = peer("scipy-cg", "--n", "2048", "--max-iter", "3", "--quiet", "--record", str(res / "bench-cg/quick.jsonl"))

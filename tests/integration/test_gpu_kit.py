@@ -143,7 +143,10 @@ def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"
     """A kit's output folder with two records of a fake GPU, marked as a test, as gpu-kit/run leaves it."""
     rec = lambda i: {"schema": "hpcgi-record/1", "app": "poisson", "params": {"n": 64 * i, "backend": "cuda"},
                      "result": {"converged": True}, "times_s": {"solve": 0.1 * i},
-                     "backend_info": {"gpu": gpu}, "provenance": {"env": {"HPCGI_CASE": f"test/{i}"}}}
+                     "backend_info": {"gpu": gpu},
+                     "provenance": {"git_commit": "test", "git_dirty": False, "compiler": "test", "host": "test",
+                                    "os": "test", "cpu_model": "test", "cpus_online": 1, "utc": "2026-01-01T00:00:00Z",
+                                    "env": {"HPCGI_CASE": f"test/{i}"}}}  # a valid record (tests/conftest.py)
     d = out / "results" / label / "table41"
     d.mkdir(parents=True)
     (d / "paper.jsonl").write_text("".join(json.dumps(rec(i)) + "\n" for i in (1, 2)))

@@ -108,6 +108,33 @@ def test_record_is_appended_with_provenance(tmp_path):
         assert r["provenance"][k]
 
 
+def test_max_iter_reached_exits_4_and_writes_its_record_only(tmp_path):
+    """A run stopped by --max-iter is no answer: exit 4, one line, the record (status max_iter, exit_status 4), no
+    solution file; --steps K runs exactly K iterations (the benchmarks' time per iteration) and exits 0."""
+    rec, sol = tmp_path / "r.jsonl", tmp_path / "u.bin"
+    p = run([BIN / "poisson", "--n", "512", "--max-iter", "10", "--record", rec, "--solution", sol])
+    assert p.returncode == 4, (p.returncode, p.stderr)
+    assert p.stderr.startswith("poisson: not converged: relative residual") and len(p.stderr.splitlines()) == 1
+    assert "status max_iter after 10 iterations" in p.stdout and not sol.exists()
+    r = json.loads(rec.read_text())
+    assert r["result"]["status"] == "max_iter" and r["result"]["exit_status"] == 4
+    assert r["result"]["exit_reason"] in p.stderr
+    p, r = poisson("--n", 512, "--steps", 10, "--backend", "openmp")
+    assert p.returncode == 0, p.stderr
+    assert r["result"]["status"] == "steps_done" and r["result"]["iterations"] == 10
+    assert r["params"]["steps"] == 10 and r["params"]["tol"] is None and r["result"]["exit_status"] == 0
+
+
+@requires_mpi
+def test_max_iter_under_mpi_exits_4_on_every_rank(tmp_path):
+    rec = tmp_path / "r.jsonl"
+    p = run(["mpirun", "-np", "2", BIN / "poisson", "--backend", "mpi", "--n", "64", "--max-iter", "3", "--quiet",
+             "--record", rec], env=MPI_ENV)
+    assert p.returncode == 4, (p.returncode, p.stderr)
+    assert p.stderr.count("poisson: not converged") == 1, p.stderr
+    assert len(rec.read_text().splitlines()) == 1
+
+
 BAD = [
     ["--n", "0"],
     ["--n", "-5"],
@@ -129,6 +156,9 @@ BAD = [
     ["--precond", "mg", "--backend", "cublas1"],
     ["--precond", "mg", "--backend", "cublas2"],
     ["--check-symmetry"],
+    ["--steps", "0"],
+    ["--steps", "5", "--tol", "1e-3"],
+    ["--steps", "5", "--max-iter", "10"],
 ]
 
 
@@ -185,6 +215,7 @@ def test_help_lists_backends_and_exits_0():
     assert p.returncode == 0
     for b in ("serial", "openmp", "mpi", "cublas1", "cublas2", "cuda"):
         assert b in p.stdout
+    assert "Exit status: 0 an answer" in p.stdout and "4 not converged within --max-iter" in p.stdout
 
 
 # --precond mg (poisson/mg.hpp): CG preconditioned by one multigrid V-cycle, every backend against serial.

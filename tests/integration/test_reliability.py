@@ -1,5 +1,5 @@
 """Bad input and numerical failure through bin/radiosity, as a user or a job array meets them: every case ends
-with its exit status (2 bad input, 3 numerical failure), one line on stderr, a record that says what happened
+with its exit status (2 bad input, 3 numerical failure, 4 not converged, 5 disagreed), one line on stderr, a record that says what happened
 (for a failed solve) and no half-made output. The README's table "Reliability: bad input and faults" is made
 from these cases.
 
@@ -72,6 +72,55 @@ def test_unscaled_rho_1_box_is_not_divergent(tmp_path):
     p = radiosity("solve", scene, "--allow-reflectivity-ge-1", "--ff", ff, "--steps", "100", "--json", "--quiet")
     assert p.returncode == 0, p.stderr
     assert json.loads(p.stdout)["result"]["status"] == "steps_done"
+
+
+# The lossless closed box (reflectivity 1, emission 1, walls facing in): every row of rho F sums to about 1, so
+# (I - rho F) B = E has no solution. With a tolerance Jacobi (and Gauss-Seidel) stop as stagnant once the residual
+# has not decreased for 100 steps: exit 3, "no solution", the record written with the status; not max_iter.
+@pytest.mark.parametrize("args", [[], ["--precision", "double"], ["--method", "gauss-seidel"]])
+def test_lossless_closed_box_has_no_solution(tmp_path, args):
+    scene, ff = scene_with_ff(tmp_path, BOX.replace('reflectivity=".5,.5,.5"', 'reflectivity="1,1,1"'))
+    result, err = failed_solve(tmp_path, scene, ff, "--tol", "1e-6", *args)
+    assert result["status"] == "stagnant" and result["iterations"] < 200, result
+    assert err.startswith("radiosity: numerical failure: no solution: "), err
+    assert result["exit_status"] == 3 and result["exit_reason"].startswith("no solution: "), result
+
+
+def test_max_iter_reached_exits_4_with_its_record(tmp_path):
+    """--max-iter reached without the tolerance: exit 4, one line, the record says max_iter, nothing else written."""
+    rec, out = tmp_path / "rec.jsonl", tmp_path / "out.xml"
+    scene = ROOT / "radiosity" / "scenes" / "scene1.xml"
+    ff = tmp_path / "s.ff"
+    assert radiosity("formfactors", scene, "--hemicube", "16", "-o", ff, "--quiet").returncode == 0
+    p = radiosity("solve", scene, "--ff", ff, "--tol", "1e-6", "--max-iter", "5", "--record", rec, "--output", out)
+    assert p.returncode == 4, (p.returncode, p.stderr)
+    assert p.stderr.startswith("radiosity: not converged: jacobi stopped at --max-iter 5") and \
+        len(p.stderr.splitlines()) == 1, p.stderr
+    assert "status max_iter after 5 iterations" in p.stdout and not out.exists()
+    r = json.loads(rec.read_text())
+    assert r["result"]["status"] == "max_iter" and r["result"]["exit_status"] == 4
+    assert r["result"]["exit_reason"] in p.stderr
+
+
+def test_disagreed_float64_check_exits_5_with_its_record(tmp_path):
+    """A rule that stops far from the answer (the residual squared below 1e-6: the residual below 1e-3) converges by
+    its own rule but its answer is about 1e-3 away, beyond the check's bound (1e-5 + 20 tol): exit 5, the record written;
+    --no-verify keeps its meaning (no check, exit 0)."""
+    rec = tmp_path / "rec.jsonl"
+    scene = ROOT / "radiosity" / "scenes" / "scene1.xml"
+    ff = tmp_path / "s.ff"
+    assert radiosity("formfactors", scene, "--hemicube", "16", "-o", ff, "--quiet").returncode == 0
+    args = ["solve", scene, "--ff", ff, "--tol", "1e-6", "--stop", "residual-e+squared", "--record", rec]
+    p = radiosity(*args)
+    assert p.returncode == 5, (p.returncode, p.stderr)
+    assert p.stderr.startswith("radiosity: disagreed with its float64 check: max relative difference"), p.stderr
+    assert "DISAGREED" in p.stdout
+    r = json.loads(rec.read_text())
+    assert r["result"]["status"] == "converged" and r["verify"]["agreed"] is False
+    assert r["result"]["exit_status"] == 5 and r["result"]["exit_reason"] in p.stderr
+    p = radiosity(*args, "--no-verify")
+    assert p.returncode == 0, p.stderr
+    assert json.loads(rec.read_text().splitlines()[1])["result"]["exit_status"] == 0
 
 
 # Emission 1e39 is a finite number in the scene file but above float's largest (3.4e38): the float solvers

@@ -74,7 +74,9 @@ def test_history_replays_the_stop_in_python_as_in_cpp(scenes):
     args, ff = scenes["scene1"]
     for method in ("jacobi", "gauss-seidel", "bicgstab"):
         for rule in ("residual-e", "residual-b+stacked", "step-2+squared", "step-inf", "residual-r0+stacked+squared"):
-            rec = solve(args, ff, "--method", method, "--tol", "1e-6", "--stop", rule, "--history")
+            # --no-verify, as the audit's case lists: a squared rule stops far from the answer, and its float64 check
+            # would disagree (exit 5); the count is what is replayed here
+            rec = solve(args, ff, "--method", method, "--tol", "1e-6", "--stop", rule, "--history", "--no-verify")
             h = rec["result"]["history"]
             assert h["rule"] == rule
             assert table42_audit.replay(h, rule, 1e-6) == rec["result"]["iterations"], (method, rule)

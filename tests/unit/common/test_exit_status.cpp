@@ -28,6 +28,10 @@ TEST(ExitStatus, EachErrorHasItsStatusAndOneLine) {
   EXPECT_EQ(err, "prog: bad --n\n");
   EXPECT_EQ(status_of([]() -> int { throw hpcgi::NumericalError("breakdown: p·Ap = 0"); }, err), 3);
   EXPECT_EQ(err, "prog: numerical failure: breakdown: p·Ap = 0\n");
+  EXPECT_EQ(status_of([]() -> int { throw hpcgi::NotConvergedError("residual 0.5 after 10 iterations"); }, err), 4);
+  EXPECT_EQ(err, "prog: not converged: residual 0.5 after 10 iterations\n");
+  EXPECT_EQ(status_of([]() -> int { throw hpcgi::DisagreedError("difference 1e-3"); }, err), 5);
+  EXPECT_EQ(err, "prog: disagreed with its float64 check: difference 1e-3\n");
   EXPECT_EQ(status_of([]() -> int { throw std::runtime_error("disk full"); }, err), 1);
   EXPECT_EQ(err, "prog: error: disk full\n");
 }
@@ -49,4 +53,16 @@ TEST(ExitStatus, AnAgreedErrorKeepsItsStatus) {
   EXPECT_EQ(status_of([]() -> int { throw hpcgi::Agreed<hpcgi::UsageError>("too big"); }, err), 2);
   EXPECT_EQ(err, "prog: too big\n");
   EXPECT_EQ(status_of([]() -> int { throw hpcgi::Agreed<hpcgi::NumericalError>("nonfinite"); }, err), 3);
+}
+
+// finish(outcome) ends a run that is no answer with its status; an answer goes on.
+TEST(ExitStatus, FinishThrowsTheOutcomesStatus) {
+  std::string err;
+  EXPECT_EQ(status_of([] { hpcgi::finish({}); return 0; }, err), 0);
+  for (int s : {hpcgi::kExitNumerical, hpcgi::kExitNotConverged, hpcgi::kExitDisagreed})
+    for (bool agreed : {false, true}) {
+      EXPECT_EQ(status_of([&] { hpcgi::finish({s, "why"}, agreed); return 0; }, err), s);
+      EXPECT_NE(err.find("why"), std::string::npos) << err;
+    }
+  EXPECT_THROW(hpcgi::finish({hpcgi::kExitUsage, "no"}), std::logic_error);
 }

@@ -14,7 +14,8 @@ namespace fs = std::filesystem;
 
 TEST(Record, HasSchemaAndProvenance) {
   auto r = hpcgi::record::make("test");
-  EXPECT_EQ(r["schema"], hpcgi::record::kSchema);
+  EXPECT_EQ(r["schema"], "hpcgi-record/1");
+  EXPECT_EQ(hpcgi::record::schema()["properties"]["schema"]["const"], "hpcgi-record/1");
   for (const char* k : {"git_commit", "git_dirty", "compiler", "cxxflags", "host", "cpu_model", "omp_max_threads",
                         "utc"})
     EXPECT_TRUE(r["provenance"].contains(k)) << k;

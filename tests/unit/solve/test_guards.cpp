@@ -74,16 +74,55 @@ TEST(Guards, JacobiDivergenceStopsEarly) {
   EXPECT_NE(r.detail.find("original: the residual"), std::string::npos) << r.detail;
 }
 
-// Rows summing to exactly 1 with ρ = 1: the residual neither shrinks nor grows (B grows by E every step). That
-// is no convergence, but no divergence either: the run ends at max_iter.
-TEST(Guards, SpectralRadiusOneIsNotDivergence) {
+// Rows summing to exactly 1 with ρ = 1: the residual neither shrinks nor grows (B grows by E every step), and
+// (I - ρF) B = E has no solution. That is no divergence: with a tolerance the run stops as stagnant, with the
+// reason "no solution", after the stagnation window (on every Jacobi backend, Gauss-Seidel and SOR alike); fixed
+// steps run to the end.
+TEST(Guards, SpectralRadiusOneIsStagnationNotDivergence) {
   const Problem p = uniform_room(1.0);
+  for (const char* backend : {"serial", "openmp"})
+    for (const char* method : {"jacobi", "gauss-seidel"})
+      for (const char* precision : {"float", "double"}) {
+        SCOPED_TRACE(std::string(backend) + " " + method + " " + precision);
+        SolveConfig c = config(backend, method, precision);
+        c.max_iter = 300;
+        const SolveResult r = solve(p.sys, c);
+        EXPECT_EQ(r.status, SolveStatus::stagnant);
+        EXPECT_EQ(r.detail.rfind(std::string("no solution: ") + method + ": the relative residual did not decrease", 0), 0u)
+            << r.detail;
+        EXPECT_GE(r.iterations, kStagnationWindow - 1);
+        EXPECT_LE(r.iterations, kStagnationWindow + 5);
+        EXPECT_TRUE(failed(r.status));
+      }
   SolveConfig c = config("serial", "jacobi", "double");
-  c.max_iter = 300;
-  EXPECT_EQ(solve(p.sys, c).status, SolveStatus::max_iter);
+  c.steps = 300;
+  EXPECT_EQ(solve(p.sys, c).status, SolveStatus::steps_done);
   c = config("original", "jacobi", "float");
   c.steps = 300;
   EXPECT_EQ(solve(p.sys, c).status, SolveStatus::steps_done);
+}
+
+// The guard itself: a residual flat (or slowly growing) for the window, far above the tolerance, is stagnant; a
+// slow but steady decrease (rate 1 - 1e-4 per step), a flat residual near the tolerance (held up by rounding) and a
+// transient growth with its decrease after are not.
+TEST(Guards, StagnationNeedsAFlatResidualFarAboveTheTolerance) {
+  auto steps_to_stagnate = [](double tol, bool dbl, auto value) {
+    Stagnation s(tol, dbl);
+    for (long k = 1; k <= 2000; ++k) {
+      const double v = value(k);
+      if (!s(k, Rgb{v, v / 2, v / 4}).empty()) return k;
+    }
+    return 0L;
+  };
+  EXPECT_EQ(steps_to_stagnate(1e-6, true, [](long) { return 1.008; }), kStagnationWindow);
+  EXPECT_EQ(steps_to_stagnate(1e-6, false, [](long k) { return 1.0 + 1e-4 * double(k % 3); }), kStagnationWindow);
+  EXPECT_EQ(steps_to_stagnate(1e-6, false, [](long k) { return std::pow(1 + 1e-4, double(k)); }), kStagnationWindow);
+  EXPECT_EQ(steps_to_stagnate(1e-6, false, [](long k) { return std::pow(1 - 1e-4, double(k)); }), 0);
+  EXPECT_EQ(steps_to_stagnate(1e-6, true, [](long k) { return std::pow(1 - 1e-7, double(k)); }), 0);
+  EXPECT_EQ(steps_to_stagnate(1e-6, true, [](long) { return 5e-4; }), 0);   // below 1000 tol
+  EXPECT_EQ(steps_to_stagnate(1e-9, false, [](long) { return 1e-4; }), 0);  // below 1e4 float epsilon
+  // growth ten times in a step, then a decrease at 0.98 per step: never flat
+  EXPECT_EQ(steps_to_stagnate(1e-6, true, [](long k) { return k < 2 ? 1.0 : 9.8 * std::pow(0.98, double(k - 2)); }), 0);
 }
 
 // One large patch seen whole by 100 small ones (F_i0 = 0.99) that it sees little of (F_0i = 0.0099): a residual

@@ -212,4 +212,5 @@ TEST(RunControl, StatusNames) {
   EXPECT_STREQ(to_string(SolveStatus::steps_done), "steps_done");
   EXPECT_STREQ(to_string(SolveStatus::breakdown), "breakdown");
   EXPECT_STREQ(to_string(SolveStatus::nonfinite), "nonfinite");
+  EXPECT_STREQ(to_string(SolveStatus::stagnant), "stagnant");
 }
