@@ -17,6 +17,9 @@ CG_FRACTION, CG_VS_SCIPY, JACOBI_SLACK, JACOBI_VS_NUMPY, HALF_VS_FLOAT = 0.80, 8
 # Issue 19's: MG-PCG's time to 1e-6 at N = 2048 and 4096 at most 0.5x PETSc CG + BoomerAMG's and below PETSc CG +
 # GAMG's; plain CG per iteration >= 3x PETSc's CG; N = 8192 in at most 10 s.
 MG_VS_HYPRE, CG_VS_PETSC, MG_8192_S = 0.5, 3.0, 10.0
+# Issue 17's: CSR float32 on room3 within 1.25x of its matrix bytes at the read-sweep bandwidth next to it; the
+# compressed storage at least 4x faster per Jacobi step than dense float32 on room3, in the same run.
+CSR_SLACK, COMPRESSED_VS_DENSE = 1.25, 4.0
 PETSC = {"none": "PETSc CG (AIJ 5-point)", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
 
 
@@ -28,13 +31,51 @@ def _median(df, col):
     return float(df[col].median())
 
 
-def _limit_next_to(stream, recs):
-    """The triad bandwidth measured next to a case's records: the median of the last stream record at or before
-    their first and the first at or after their last (either alone where the other is missing)."""
+def _limit_next_to(stream, recs, col="perf.triad_GBps"):
+    """The bandwidth (the triad, or col) measured next to a case's records: the median of the last stream record at
+    or before their first and the first at or after their last (either alone where the other is missing)."""
     t, first, last = stream["provenance.utc"], recs["provenance.utc"].min(), recs["provenance.utc"].max()
     near = [s for s in (stream[t <= first].sort_values("provenance.utc").tail(1),
                         stream[t >= last].sort_values("provenance.utc").head(1)) if len(s)]
-    return _median(pd.concat(near), "perf.triad_GBps")
+    return _median(pd.concat(near), col)
+
+
+def sparse_rows(preset, host, stream):
+    """The bench-sparse table (issue 17): per scene and storage, the bytes of F a step reads, the time per step, its
+    bandwidth, the read sweep next to it and the time over its limit (bytes / read sweep); and the target lines.
+    Each repeat is set against the stream records beside it (slurm/bench runs the list in rounds), then medians."""
+    df = _on(load("bench-sparse", preset), host)
+    if not len(df):
+        return [], []
+    out, targets, per = [], [], {}
+    df = df.assign(scene_name=df["params.scene"].map(lambda x: x.rsplit("/", 1)[-1]))
+    for scene, g in df.groupby("scene_name", sort=False):
+        for k, ((storage, values), r) in enumerate(g.groupby(["params.storage", "params.ff_precision"], sort=False)):
+            nbytes = float(r["perf.matrix_bytes"].iloc[0])
+            read = [_limit_next_to(stream, r.iloc[[i]], "perf.read_GBps") for i in range(len(r))]
+            t = _median(r, "times_s.per_iteration")
+            over = float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], read)])
+                         .median())
+            per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()))
+            out.append({"problem": f"Jacobi step, {scene}, {int(r['params.patches'].iloc[0])} patches" if k == 0
+                        else "", "storage": f"{storage} {values}", "MB of F per step": nbytes / 1e6,
+                        "bytes per entry": (nbytes - 8 * (int(r["params.patches"].iloc[0]) + 1)) /
+                        float(r["result.kept"].iloc[0]) if storage != "dense" else None,
+                        "ms per step": 1e3 * t, "GB/s": nbytes / t / 1e9,
+                        "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
+                        "repeats": len(r)})
+    csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
+    if csr:
+        targets.append(f"CSR float32 room3: {csr[1]:.2f}x its matrix bytes at the read sweep next to it "
+                       f"({csr[2]:.1f} GB/s; target <= {CSR_SLACK}x): {'met' if csr[1] <= CSR_SLACK else 'NOT met'}")
+    for values in ("float16", "float32"):
+        comp = per.get(("room3.xml", "compressed", values))
+        if comp and dense:
+            x = dense[0] / comp[0]
+            targets.append(f"compressed {values} room3: {x:.2f}x faster per Jacobi step than dense float32 "
+                           f"({1e3 * comp[0]:.2f} against {1e3 * dense[0]:.2f} ms; target >= {COMPRESSED_VS_DENSE:g}x)"
+                           f": {'met' if x >= COMPRESSED_VS_DENSE else 'NOT met'}")
+    return out, targets
 
 
 def rows(preset):
@@ -228,6 +269,7 @@ def write(preset):
         return None
     out, targets, host, threads, cpu = made
     mg_out, mg_targets = mg_rows(preset, host)
+    sp_out, sp_targets = sparse_rows(preset, host, _on(load("bench-stream", preset), host))
     df = pd.DataFrame(out)
     df = df.astype(object).where(df.notna(), None)  # empty cells, not "nan"
     table = df.to_markdown(index=False, floatfmt=".3g", missingval="")
@@ -247,6 +289,15 @@ def write(preset):
                  f"alternate. time / ours: peer over ours (> 1: ours is faster); for plain CG per iteration.\n\n"
                  + mg.to_markdown(index=False, floatfmt=".4g", missingval="") + "\n\n"
                  + "".join(f"- {t}\n" for t in mg_targets))
+    if sp_out:
+        sp = pd.DataFrame(sp_out)
+        sp = sp.astype(object).where(sp.notna(), None)
+        text += (f"\n#### Sparse form factors: a Jacobi step by storage ({preset})\n\nopenmp, float, AOS, "
+                 f"{threads} threads, 32 steps; slurm/bench runs the storages in rounds, so they alternate in the same "
+                 f"minutes. MB of F per step: what the product reads (perf.matrix_bytes); time / its limit: the time "
+                 f"per step over those bytes at the read-only sweep measured next to each repeat (median over the "
+                 f"repeats).\n\n" + sp.to_markdown(index=False, floatfmt=".3g", missingval="") + "\n\n"
+                 + "".join(f"- {t}\n" for t in sp_targets))
     tables_dir().mkdir(parents=True, exist_ok=True)
     path = tables_dir() / f"bench_{preset}.md"
     path.write_text(text)

@@ -43,6 +43,7 @@ struct FormFactorArgs : SceneArgs {
   HemicubeParams hemicube;
   std::string weights = "exact";
   std::string split = "work";  // under MPI: rows in blocks of equal estimated work, or of equal count ("rows")
+  std::string storage = "dense", ff_precision = "float32";  // the file's: dense (version 1) or sparse (version 2)
 };
 void add_formfactors(CLI::App& app, FormFactorArgs& a);
 int run_formfactors(const FormFactorArgs& a);
@@ -50,7 +51,7 @@ int run_formfactors(const FormFactorArgs& a);
 struct SolveArgs : SceneArgs {
   std::string ff;
   SolveConfig cfg;
-  std::string storage = "dense";        // dense | csr | auto (csr where it holds fewer bytes)
+  std::string storage = "auto";         // auto (storage_choice.hpp: the fewest bytes per step) | dense | csr | compressed
   std::string ff_precision = "float32";  // float32 | float16 | bfloat16: how F is stored
   double threshold = 0;                  // drop |F_ij| <= threshold at load
   std::string reference_ff;              // the error reference's form factors (default: --ff)

@@ -10,6 +10,7 @@
 #include <iostream>
 
 #include "common/comm.hpp"
+#include "common/errors.hpp"
 #include "common/cli.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
@@ -20,6 +21,7 @@
 #include "radiosity/formfactor/diagnostics.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
+#include "radiosity/solve/ff_matrix_file.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif
@@ -45,6 +47,13 @@ void add_formfactors(CLI::App& app, FormFactorArgs& a) {
                   "under mpirun: rows in blocks of equal estimated hemicube work (work) or of equal count (rows, to "
                   "compare)")
       ->check(CLI::IsMember({"work", "rows"}))->capture_default_str();
+  cmd->add_option("--storage", a.storage,
+                  "the file's storage: dense (version 1, what every reader takes) | csr | compressed (version 2: "
+                  "only the non-zero F_ij, read by solve on serial and openmp; one process)")
+      ->check(CLI::IsMember({"dense", "csr", "compressed"}))->capture_default_str();
+  cmd->add_option("--ff-precision", a.ff_precision,
+                  "the values of a csr or compressed file: float32 | float16 (scaled by a power of two) | bfloat16")
+      ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
 }
 
 namespace {
@@ -66,6 +75,23 @@ RowSums row_sums(const FormFactorRows& rows) {
   return s;
 }
 
+// A csr or compressed file (version 2) of one process's rows: every row kept (the file belongs to the geometry),
+// the copy's memory checked before it is built.
+void save_sparse_form_factors(const std::string& path, const Mesh& m, const FormFactorRows& rows,
+                              const std::string& storage, const std::string& precision) {
+  const size_t n = rows.n;
+  const std::vector<Rgb> every_row(n, Rgb{1, 1, 1});
+  FFMatrixOptions opt;
+  opt.storage = parse_ff_storage(storage);
+  opt.values = parse_ff_values(precision);
+  const size_t kept = count_kept(rows.values.data(), n, every_row, 0);
+  const size_t bridges = opt.storage == FFStorage::compressed ? count_bridges(rows.values.data(), n, every_row, 0) : 0;
+  hpcgi::require_host_memory("the " + storage + " " + precision + " copy of the form factors of " +
+                                 std::to_string(n) + " patches",
+                             ff_storage_bytes(opt.storage, opt.values, n, kept, bridges));
+  save_form_factor_matrix(path, m, rows.params, FormFactorMatrix(rows.values.data(), n, every_row, opt));
+}
+
 }  // namespace
 
 int run_formfactors(const FormFactorArgs& a) {
@@ -77,6 +103,12 @@ int run_formfactors(const FormFactorArgs& a) {
     validate(hp);
     limit = a.memory_limit();
     check_files(a, {{a.out, "-o"}}, {});
+    if (a.storage == "dense" && a.ff_precision != "float32")
+      throw hpcgi::UsageError("--ff-precision " + a.ff_precision + " is for a csr or compressed file (a dense file "
+                              "holds float32; solve --ff-precision stores it in 16 bits when it loads it)");
+    if (a.storage != "dense" && hpcgi::comm::size() > 1)
+      throw hpcgi::UsageError("a " + a.storage + " file is written by one process (the ranks write dense rows at "
+                              "fixed offsets): run formfactors without mpirun, or --storage dense");
   });
   const bool dist = hpcgi::comm::active();
   const int ranks = hpcgi::comm::size(), rank = hpcgi::comm::rank();
@@ -178,16 +210,19 @@ int run_formfactors(const FormFactorArgs& a) {
     chain_s = st.chain_s;
     checksum_s = st.checksum_s;
 #endif
-  } else {
+  } else if (a.storage == "dense") {
     FormFactors whole{n, std::move(rows.values), rows.params};
     save_form_factors(a.out, m, whole);
+  } else {
+    save_sparse_form_factors(a.out, m, rows, a.storage, a.ff_precision);
   }
   const double save_s = t.seconds();
 
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "formfactors"}, {"scene", a.scene},          {"divide", a.load.divide},
                    {"patches", m.size()},      {"hemicube", hp.resolution}, {"weights", a.weights},
-                   {"threshold", hp.threshold}, {"threads", threads}};
+                   {"threshold", hp.threshold}, {"threads", threads}, {"storage", a.storage},
+                   {"ff_precision", a.ff_precision}};
   if (dist) {
     rec["params"]["backend"] = "mpi";
     rec["params"]["ranks"] = ranks;

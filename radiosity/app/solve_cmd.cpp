@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -27,6 +28,8 @@
 #include "radiosity/scene/rrv_writer.hpp"
 #include "radiosity/solve/ff_matrix.hpp"
 #include "radiosity/solve/mesh_map.hpp"
+#include "radiosity/solve/ff_matrix_file.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif
@@ -110,6 +113,22 @@ hpcgi::Outcome outcome_of(const SolveResult& res, const SolveConfig& cfg, const 
     return {hpcgi::kExitDisagreed, why};
   }
   return {};
+}
+
+// A sparse form-factor file is solved as it is stored: by a backend that reads any storage, in its own storage and
+// values, at its own threshold.
+void check_sparse_file_request(const SolveArgs& a, const SolveBackend& b, const FormFactorFileInfo& info) {
+  const std::string file = "--ff '" + a.ff + "' holds " + info.storage + " " + info.precision + " form factors";
+  if (!b.any_storage)
+    throw hpcgi::UsageError(file + ": backend '" + b.name + "' reads dense float32 files only (write the file with "
+                            "formfactors --storage dense)");
+  if (a.storage != "auto" && a.storage != info.storage)
+    throw hpcgi::UsageError(file + ", not " + a.storage + ": give --storage auto or " + info.storage);
+  if (a.ff_precision != info.precision)
+    throw hpcgi::UsageError(file + ": give --ff-precision " + info.precision + " (the values are read as stored)");
+  if (a.threshold > 0)
+    throw hpcgi::UsageError(file + ": --threshold applies when a dense file is loaded (this file's threshold is " +
+                            std::to_string(info.params.threshold) + ")");
 }
 
 const SolveBackend& find_backend(const std::string& name) {
@@ -204,9 +223,10 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   cmd->add_option("--precision", a.cfg.precision, "working precision of B and of the sums: float | double")
       ->check(CLI::IsMember({"float", "double"}))->capture_default_str();
   cmd->add_option("--storage", a.storage,
-                  "form factors held as dense (n x n) | csr (only the kept F_ij: values and int32 columns) | auto "
-                  "(csr where it holds fewer bytes; dense on the backends that read dense only)")
-      ->check(CLI::IsMember({"dense", "csr", "auto"}))->capture_default_str();
+                  "form factors held as auto (of those the backend reads, the one that moves the fewest bytes per "
+                  "step) | dense (n x n) | csr (only the kept F_ij: values and int32 columns) | compressed (csr with "
+                  "uint16 column steps)")
+      ->check(CLI::IsMember({"auto", "dense", "csr", "compressed"}))->capture_default_str();
   cmd->add_option("--ff-precision", a.ff_precision,
                   "form factors stored as float32 | float16 (scaled by a power of two) | bfloat16, widened to the "
                   "working precision in the sums (16 bits: serial and openmp)")
@@ -297,9 +317,9 @@ int run_solve(const SolveArgs& a) {
     if (chosen->distributed && !a.reference_ff.empty())
       throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
                               "--ff (solve the finer mesh with serial or openmp)");
-    if (!chosen->any_storage && (a.storage == "csr" || values != FFValues::float32))
-      throw hpcgi::UsageError("backend '" + chosen->name + "' reads dense float32 form factors only: --storage csr "
-                              "and --ff-precision float16|bfloat16 run on serial and openmp");
+    if (!chosen->any_storage && ((a.storage != "auto" && a.storage != "dense") || values != FFValues::float32))
+      throw hpcgi::UsageError("backend '" + chosen->name + "' reads dense float32 form factors only: --storage " +
+                              "csr|compressed and --ff-precision float16|bfloat16 run on serial and openmp");
   });
   const auto [width, height] = picture;
   const SolveBackend& backend = *chosen;
@@ -340,10 +360,24 @@ int run_solve(const SolveArgs& a) {
     have_ref = true;
   }
 
-  // Memory: the file's dense float32 values (always read whole; on MPI ranks each its block of rows), a 16-bit
-  // dense copy, the vectors; a CSR copy is checked once its size is known (the kept values are counted after
-  // loading). --max-memory-per-rank is checked first, the same on every rank (the split depends on the mesh only).
+  // A sparse file (version 2) is read as it is stored, never dense (ff_matrix_file.hpp). Its header says so; what
+  // is no file at all is taken for a dense one here (the memory check refuses it from the patch count, the load
+  // by what it is).
+  const FormFactorFileInfo file_info = hpcgi::comm::agreed([&] {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(a.ff, ec)) return FormFactorFileInfo{};
+    FormFactorFileInfo info = check_any_form_factor_file(a.ff, m);
+    if (info.version != 1) check_sparse_file_request(a, backend, info);
+    return info;
+  });
+  const bool sparse_file = file_info.version != 1;
+
+  // Memory: the file's dense float32 values (always read whole; on MPI ranks each its block of rows), or a sparse
+  // file's matrix, a 16-bit dense copy, the vectors; a CSR copy is checked once its size is known (the kept values
+  // are counted after loading). --max-memory-per-rank is checked first, the same on every rank (the split depends
+  // on the mesh only).
   const bool dense16 = a.storage == "dense" && values != FFValues::float32;
+  const double sparse_bytes = double(file_info.payload_bytes);
   // On MPI ranks, rows in blocks of equal count: a rank holds every row of its block, dense, so equal counts balance
   // the memory, which decides how many ranks a scene needs. Rows of reflectivity 0 are held but not computed; the
   // compute can be off balance by at most their share (lights, usually a few percent).
@@ -356,7 +390,8 @@ int run_solve(const SolveArgs& a) {
     std::vector<RankNeed> v;
     for (int r = 0; r < p; ++r) {
       const size_t rows = b[r + 1] - b[r];
-      v.push_back({rows, (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n), vector_bytes(n) + (r == 0 ? picture_bytes : 0)});
+      v.push_back({rows, sparse_file ? sparse_bytes : (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n),
+                   vector_bytes(n) + (r == 0 ? picture_bytes : 0)});
     }
     return v;
   };
@@ -364,9 +399,12 @@ int run_solve(const SolveArgs& a) {
   const dist::RowBlock block = dist::block_of(bounds, dist ? rank : 0);
   require_memory_per_rank(limit, needs, ranks, "a solve of " + patches,
                           "bin/radiosity solve ... --backend mpi");
-  const double file_bytes = 4.0 * double(block.rows()) * double(n), copy_bytes = dense16 ? 2 * n2 : 0;
+  const double file_bytes = sparse_file ? sparse_bytes : 4.0 * double(block.rows()) * double(n),
+               copy_bytes = dense16 ? 2 * n2 : 0;
   hpcgi::comm::agreed([&] {
-    hpcgi::require_host_memory("a solve of " + patches + " (the form-factor file's dense float32 values " +
+    hpcgi::require_host_memory("a solve of " + patches + " (the form-factor file's " +
+                                   (sparse_file ? file_info.storage + " " + file_info.precision
+                                                : std::string("dense float32")) + " values " +
                                    (dist ? "of rank " + std::to_string(rank) + "'s " + std::to_string(block.rows()) +
                                                " rows "
                                          : std::string()) +
@@ -377,8 +415,13 @@ int run_solve(const SolveArgs& a) {
   });
   hpcgi::Timer t;
   FormFactorRows ff;
+  std::unique_ptr<FormFactorMatrix> matrix;
   double rank_read_s = 0, rank_checksum_s = 0, rank_chain_s = 0;
-  if (dist) {
+  if (sparse_file) {
+    ff.n = n;
+    ff.row_end = n;
+    matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, m, &ff.params));
+  } else if (dist) {
 #ifdef HAVE_MPI
     dist::FileStats st;
     ff = dist::load_form_factor_rows(a.ff, m, block, &st);
@@ -397,6 +440,10 @@ int run_solve(const SolveArgs& a) {
   const double ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
   System sys = make_system(m, ff.values.empty() ? &kNoRows : ff.values.data());
+  if (sparse_file) {
+    sys.F = nullptr;
+    sys.stored = matrix->view();
+  }
   if (dist) {
     sys.rows_begin = block.begin;
     sys.rows_end = block.end;
@@ -411,24 +458,42 @@ int run_solve(const SolveArgs& a) {
     hpcgi::comm::sum(&k, 1);
     return size_t(k);
   };
-  const size_t kept = kept_at(a.threshold);
-  const bool dropped = a.threshold > 0 && kept != kept_at(0);
-  FFStorage storage = a.storage == "auto" ? (backend.any_storage ? cheaper_storage(values, n, kept) : FFStorage::dense)
-                                          : parse_ff_storage(a.storage);
+  const size_t kept = sparse_file ? matrix->kept() : kept_at(a.threshold);
+  const bool dropped = !sparse_file && a.threshold > 0 && kept != kept_at(0);
+  size_t rows_needed = 0;
+  for (size_t i = block.begin; i < block.end; ++i) rows_needed += row_needed(sys.reflectivity[i]);
+  const size_t bridges = sparse_file            ? matrix->bridges()
+                         : backend.any_storage ? count_bridges(sys.F, n, sys.reflectivity, a.threshold)
+                                               : 0;
+  const StorageCounts counts{n, kept, bridges, rows_needed};
+  const FFStorage storage = sparse_file          ? matrix->view().storage
+                            : a.storage == "auto" ? fewest_bytes_storage(readable_storages(backend), values, counts)
+                                                  : parse_ff_storage(a.storage);
   const bool as_file = storage == FFStorage::dense && values == FFValues::float32;
-  const bool same_matrix = !have_ref && values == FFValues::float32 && !dropped;
+  // A sparse file's values are the run's: its reference is solved on them.
+  const bool same_matrix = !have_ref && (sparse_file || (values == FFValues::float32 && !dropped));
   double ref_in_build_s = 0;  // the reference solved here is no part of building the run's form factors
   if (a.verify && !have_ref && !same_matrix) {
     ref = hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
     ref_in_build_s = ref.seconds;
     have_ref = true;
   }
-  std::unique_ptr<FormFactorMatrix> matrix;
   double matrix_storage_bytes = 4 * n2;  // all ranks together
   if (as_file) {
     if (dropped) apply_threshold(ff.values.data(), n, a.threshold, block.rows());
+  } else if (sparse_file) {
+    matrix_storage_bytes = matrix->bytes();
   } else {
-    const double bytes = ff_storage_bytes(storage, values, n, kept);
+    const double bytes = ff_storage_bytes(storage, values, n, kept, counts.bridges);
+    // The dense file's values and the copy are held at once while it is built: that is what the limit must allow.
+    if (limit > 0 && file_bytes + bytes + vector_bytes(n) > limit)
+      throw hpcgi::UsageError("a solve of " + patches + " holds " + gib(file_bytes + bytes + vector_bytes(n)) +
+                              " while its " + to_string(storage) + " " + to_string(values) + " form factors (" +
+                              gib(bytes) + ") are built from the dense file (" + gib(file_bytes) +
+                              "), more than --max-memory-per-rank " + gib(limit) + ": write the file with "
+                              "formfactors --storage " + to_string(storage == FFStorage::dense ? FFStorage::compressed
+                                                                                             : storage) +
+                              " (then only those are held)");
     hpcgi::require_host_memory("the " + std::string(to_string(storage)) + " " + to_string(values) +
                                    " form factors of " + patches + " (" + std::to_string(kept) + " kept)",
                                bytes);
@@ -611,9 +676,9 @@ int run_solve(const SolveArgs& a) {
     std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), m.size(),
                 cfg.method.c_str(), cfg.layout.c_str(), cfg.backend.c_str(), cfg.precision.c_str(), res.threads,
                 res.channels, res.channels == 1 ? " (grey scene)" : "s");
-    std::printf("  form factors: %s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
-                to_string(storage), to_string(values), a.threshold, kept, n2, 100.0 * double(kept) / n2,
-                matrix_storage_bytes / 1e6, skipped_rows);
+    std::printf("  form factors: %s%s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
+                to_string(storage), a.storage == "auto" ? " (auto: the fewest bytes per step)" : "", to_string(values),
+                a.threshold, kept, n2, 100.0 * double(kept) / n2, matrix_storage_bytes / 1e6, skipped_rows);
     if (cfg.stop != "residual-e" || cfg.start != "rrv" || cfg.method == "sor")
       std::printf("  stopping rule %s, start %s%s\n", cfg.steps > 0 ? "(fixed steps)" : cfg.stop.c_str(),
                   cfg.start.c_str(), cfg.method == "sor" ? (", omega " + std::to_string(cfg.omega)).c_str() : "");

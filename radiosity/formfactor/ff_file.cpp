@@ -21,7 +21,25 @@ namespace {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the form-factor file is written as the machine's memory");
 
 constexpr char kMagic[8] = {'H', 'P', 'C', 'G', 'I', 'F', 'F', '\0'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 1;        // dense float32
+constexpr uint32_t kSparseVersion = 2;  // csr or compressed (ff_file.hpp)
+
+// A header name field holds 7 characters: version 2 writes "compressed" as "csrd16" and "bfloat16" as "bf16".
+struct Code {
+  const char* name;
+  const char* code;
+};
+constexpr Code kCodes[] = {{"compressed", "csrd16"}, {"bfloat16", "bf16"}};
+std::string code_of(const std::string& name) {
+  for (const Code& c : kCodes)
+    if (name == c.name) return c.code;
+  return name;
+}
+std::string name_of_code(const std::string& code) {
+  for (const Code& c : kCodes)
+    if (code == c.code) return c.name;
+  return code;
+}
 
 struct Header {
   char magic[8];
@@ -111,6 +129,21 @@ std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, co
   return bytes;
 }
 
+std::array<char, kFormFactorHeaderBytes> sparse_form_factor_header(const Mesh& mesh, const HemicubeParams& params,
+                                                                   const std::string& storage,
+                                                                   const std::string& precision,
+                                                                   uint64_t payload_bytes) {
+  auto bytes = form_factor_header(mesh, params);
+  Header h;
+  std::memcpy(&h, bytes.data(), sizeof h);
+  h.version = kSparseVersion;
+  set_name(h.storage, code_of(storage));
+  set_name(h.precision, code_of(precision));
+  h.values_bytes = payload_bytes;
+  std::memcpy(bytes.data(), &h, sizeof h);
+  return bytes;
+}
+
 void save_form_factors(const std::string& path, const Mesh& mesh, const FormFactors& ff) {
   if (ff.n != mesh.size() || ff.values.size() != ff.n * ff.n)
     throw std::invalid_argument("save_form_factors: a matrix for " + std::to_string(ff.n) +
@@ -145,19 +178,27 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
   if (got < sizeof h)
     throw hpcgi::UsageError("truncated " + file + ": expected at least " + std::to_string(sizeof h) +
                             " bytes of header, found " + std::to_string(size));
-  if (h.version != kVersion)
+  if (h.version != kVersion && h.version != kSparseVersion)
     throw hpcgi::UsageError("unsupported " + file + " version " + std::to_string(h.version) +
-                            " (this program reads version " + std::to_string(kVersion) + ")");
-  if (name_of(h.storage) != "dense" || name_of(h.precision) != "float32")
-    throw hpcgi::UsageError("unsupported " + file + ": storage '" + name_of(h.storage) + "', precision '" +
-                            name_of(h.precision) + "' (this program reads dense float32)");
+                            " (this program reads versions " + std::to_string(kVersion) + " and " +
+                            std::to_string(kSparseVersion) + ")");
+  const bool sparse = h.version == kSparseVersion;
+  const std::string storage = sparse ? name_of_code(name_of(h.storage)) : name_of(h.storage),
+                    precision = sparse ? name_of_code(name_of(h.precision)) : name_of(h.precision);
+  if (!sparse && (storage != "dense" || precision != "float32"))
+    throw hpcgi::UsageError("unsupported " + file + ": storage '" + storage + "', precision '" + precision +
+                            "' (version 1 holds dense float32)");
+  if (sparse && ((storage != "csr" && storage != "compressed") ||
+                 (precision != "float32" && precision != "float16" && precision != "bfloat16")))
+    throw hpcgi::UsageError("unsupported " + file + ": storage '" + storage + "', precision '" + precision +
+                            "' (version 2 holds csr or compressed, float32, float16 or bfloat16)");
   const uint64_t hash = mesh_hash(expected);
   if (h.n != expected.size() || h.mesh_hash != hash)
     throw hpcgi::UsageError(file + " belongs to another mesh: the file has " + std::to_string(h.n) +
                             " patches, mesh hash " + hex(h.mesh_hash) + "; the scene has " +
                             std::to_string(expected.size()) + " patches, mesh hash " + hex(hash) +
                             " (recompute the form factors)");
-  if (h.values_bytes != h.n * h.n * sizeof(float))
+  if (!sparse && h.values_bytes != h.n * h.n * sizeof(float))
     throw hpcgi::UsageError("corrupted " + file + ": " + std::to_string(h.values_bytes) + " bytes of values for " +
                             std::to_string(h.n) + " patches");
   const uint64_t want = sizeof h + h.values_bytes + sizeof(uint64_t);
@@ -167,6 +208,10 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
 
   FormFactorFileInfo info;
   info.n = h.n;
+  info.version = h.version;
+  info.storage = storage;
+  info.precision = precision;
+  info.payload_bytes = h.values_bytes;
   try {
     info.params.resolution = static_cast<int>(h.resolution);
     info.params.weights = parse_hemicube_weights(name_of(h.weights));
@@ -180,11 +225,26 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
 
 }  // namespace
 
-FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected) {
+FormFactorFileInfo check_any_form_factor_file(const std::string& path, const Mesh& expected) {
   hpcgi::files::require_input(path, "form-factor file");  // a FIFO would block, a folder is no file
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
   return check_header(f.get(), path, expected);
+}
+
+namespace {
+void refuse_sparse(const FormFactorFileInfo& info, const std::string& path) {
+  if (info.version != kVersion)
+    throw hpcgi::UsageError("form-factor file '" + hpcgi::one_line(path) + "' holds " + info.storage + " " +
+                            info.precision + " form factors (version 2); this reads dense float32 (version 1): write "
+                            "the file with formfactors --storage dense");
+}
+}  // namespace
+
+FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected) {
+  const FormFactorFileInfo info = check_any_form_factor_file(path, expected);
+  refuse_sparse(info, path);
+  return info;
 }
 
 FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
@@ -193,6 +253,7 @@ FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
   File f(std::fopen(path.c_str(), "rb"));
   if (!f) throw hpcgi::UsageError("cannot open " + file + ": " + std::strerror(errno));
   const FormFactorFileInfo info = check_header(f.get(), path, expected);
+  refuse_sparse(info, path);
   FormFactors ff;
   ff.n = info.n;
   ff.params = info.params;

@@ -11,6 +11,12 @@
 // then n² float32 values, row-major (F[i*n + j]), then a uint64 checksum of those bytes (FNV-1a over 64-bit words).
 // A file's size is therefore known from its header, and a truncated file is told from a corrupted one.
 //
+// Version 2 (issue 17) holds F sparse: the same header with version 2, storage "csr" or "csrd16" (compressed),
+// precision "float32", "float16" or "bf16" (bfloat16) and at 64 the bytes of the payload that follows (radiosity/solve/ff_matrix.hpp
+// describes the storages; radiosity/solve/ff_matrix_file.hpp writes and reads the payload); then the payload's
+// checksum as above. Dense files stay version 1, byte for byte as before, and every reader of dense F (relight,
+// web, backend mpi, the peers) refuses a version 2 file with one line.
+//
 // The file does not depend on how it was made: one process, or MPI ranks each writing their rows into it in parallel
 // (radiosity/dist/ff_mpi.hpp) give the same bytes, and any number of ranks reads either.
 #pragma once
@@ -40,6 +46,9 @@ struct Fnv64 {
 struct FormFactorFileInfo {
   size_t n = 0;
   HemicubeParams params;
+  uint32_t version = 1;
+  std::string storage = "dense", precision = "float32";  // version 2: the sparse storage and its values
+  uint64_t payload_bytes = 0;                             // the bytes between the header and the checksum
   uint64_t values_offset() const { return kFormFactorHeaderBytes; }
   uint64_t row_offset(size_t i) const { return kFormFactorHeaderBytes + 4 * uint64_t(i) * n; }
   uint64_t checksum_offset() const { return row_offset(n); }
@@ -50,8 +59,17 @@ struct FormFactorFileInfo {
 std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, const HemicubeParams& params);
 
 // Opens path and checks its header and size against `expected`, with every refusal of load_form_factors but the
-// checksum (the values are not read).
+// checksum (the values are not read). A version 2 (sparse) file is refused, saying what it holds.
 FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected);
+
+// The same checks for a file of either version: what a reader of sparse F calls first.
+FormFactorFileInfo check_any_form_factor_file(const std::string& path, const Mesh& expected);
+
+// The header of a version 2 file: storage and precision names, payload_bytes of payload after it.
+std::array<char, kFormFactorHeaderBytes> sparse_form_factor_header(const Mesh& mesh, const HemicubeParams& params,
+                                                                   const std::string& storage,
+                                                                   const std::string& precision,
+                                                                   uint64_t payload_bytes);
 
 // Writes a unique temporary file beside path, then renames it to path (common/files.hpp): path is never
 // half-written. Throws std::runtime_error if

@@ -1,7 +1,8 @@
 // How a kernel's rows are shared out, one façade for both CPU backends (pbrt-v4's ParallelFor): SerialExec runs
 // all rows in one call; OpenMPExec gives each thread one contiguous block (OpenMP's static schedule) whose edges
 // fall on multiples of kRowAlign rows. A kernel body takes a row range [begin, end); a reduction body returns its
-// partial sums per channel.
+// partial sums per channel; each_thread's body takes the thread's index and the thread count, for a kernel that
+// shares out its rows itself (the sparse product, by entries: csr_kernels.hpp).
 #pragma once
 #include <omp.h>
 
@@ -26,6 +27,10 @@ inline std::pair<size_t, size_t> static_block(size_t n, int t, int nt) {
 struct SerialExec {
   int threads() const { return 1; }
   template <class Body>
+  void each_thread(Body&& body) const {
+    body(0, 1);
+  }
+  template <class Body>
   void rows(size_t n, Body&& body) const {
     body(size_t{0}, n);
   }
@@ -44,6 +49,12 @@ class OpenMPExec {
   // threads = 0: the OpenMP default (OMP_NUM_THREADS or all cores).
   explicit OpenMPExec(int threads) : threads_(threads > 0 ? threads : omp_get_max_threads()), partial_(threads_) {}
   int threads() const { return threads_; }
+
+  template <class Body>
+  void each_thread(Body&& body) const {
+#pragma omp parallel num_threads(threads_)
+    body(omp_get_thread_num(), omp_get_num_threads());
+  }
 
   template <class Body>
   void rows(size_t n, Body&& body) const {

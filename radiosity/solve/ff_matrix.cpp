@@ -25,7 +25,14 @@ double half_scale_up(const float* F, size_t count) {
 
 }  // namespace
 
-const char* to_string(FFStorage s) { return s == FFStorage::csr ? "csr" : "dense"; }
+const char* to_string(FFStorage s) {
+  switch (s) {
+    case FFStorage::dense: return "dense";
+    case FFStorage::csr: return "csr";
+    case FFStorage::compressed: return "compressed";
+  }
+  return "unknown";
+}
 
 const char* to_string(FFValues v) {
   switch (v) {
@@ -39,7 +46,8 @@ const char* to_string(FFValues v) {
 FFStorage parse_ff_storage(const std::string& s) {
   if (s == "dense") return FFStorage::dense;
   if (s == "csr") return FFStorage::csr;
-  throw hpcgi::UsageError("unknown form-factor storage '" + s + "' (known: dense, csr)");
+  if (s == "compressed") return FFStorage::compressed;
+  throw hpcgi::UsageError("unknown form-factor storage '" + s + "' (known: dense, csr, compressed)");
 }
 
 FFValues parse_ff_values(const std::string& s) {
@@ -79,16 +87,34 @@ size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity
   return count;
 }
 
-double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept) {
-  const double v = double(value_bytes(values));
-  if (storage == FFStorage::dense) return v * double(n) * double(n);
-  return double(kept) * (v + sizeof(int32_t)) + sizeof(int64_t) * double(n + 1);
+size_t count_bridges(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                     size_t row_begin, size_t row_end, uint32_t max_step) {
+  if (n <= size_t(max_step) + 1) return 0;  // no step can exceed max_step
+  size_t count = 0;
+  const size_t last = std::min(row_end, n);
+#pragma omp parallel for reduction(+ : count) schedule(static)
+  for (size_t i = row_begin; i < last; ++i) {
+    if (!row_needed(reflectivity[i])) continue;
+    const float* Fi = F + (i - row_begin) * n;
+    int64_t prev = -1;
+    for (size_t j = 0; j < n; ++j)
+      if (is_kept(Fi[j], threshold)) {
+        count += size_t(int64_t(j) - prev - 1) / max_step;
+        prev = int64_t(j);
+      }
+  }
+  return count;
 }
 
-FFStorage cheaper_storage(FFValues values, size_t n, size_t kept) {
-  return ff_storage_bytes(FFStorage::csr, values, n, kept) < ff_storage_bytes(FFStorage::dense, values, n, kept)
-             ? FFStorage::csr
-             : FFStorage::dense;
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges) {
+  const double v = double(value_bytes(values));
+  switch (storage) {
+    case FFStorage::dense: return v * double(n) * double(n);
+    case FFStorage::csr: return double(kept) * (v + sizeof(int32_t)) + sizeof(int64_t) * double(n + 1);
+    case FFStorage::compressed:
+      return double(kept + bridges) * (v + sizeof(uint16_t)) + sizeof(int64_t) * double(n + 1);
+  }
+  return 0;
 }
 
 size_t apply_threshold(float* F, size_t n, double threshold, size_t rows) {
@@ -105,6 +131,8 @@ size_t apply_threshold(float* F, size_t n, double threshold, size_t rows) {
 FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
                                    const FFMatrixOptions& opt)
     : n_(n), opt_(opt) {
+  if (opt.max_step < 1 || opt.max_step > kMaxStep)
+    throw hpcgi::UsageError("form-factor matrix: a compressed step must lie in 1.." + std::to_string(kMaxStep));
   if (!(opt.threshold >= 0 && std::isfinite(opt.threshold)))
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0");
   if (reflectivity.size() != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
@@ -136,30 +164,61 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
     kept_ = nonzero;
     return;
   }
-  // CSR in two passes: the kept values per row, their prefix sums as row starts, then the values in place.
+  // CSR and compressed in two passes: the entries per row (kept values, and bridges for compressed), their prefix
+  // sums as row starts, then the entries in place.
+  const bool steps = opt.storage == FFStorage::compressed;
   row_start_.assign(n + 1, 0);
-#pragma omp parallel for schedule(static)
+  size_t bridges = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bridges)
   for (size_t i = 0; i < n; ++i) {
-    size_t count = 0;
-    if (row_needed(reflectivity[i]))
-      for (size_t j = 0; j < n; ++j) count += is_kept(F[i * n + j], opt.threshold);
-    row_start_[i + 1] = static_cast<int64_t>(count);
+    size_t count = 0, row_bridges = 0;
+    if (row_needed(reflectivity[i])) {
+      int64_t prev = -1;
+      for (size_t j = 0; j < n; ++j)
+        if (is_kept(F[i * n + j], opt.threshold)) {
+          ++count;
+          if (steps) row_bridges += size_t(int64_t(j) - prev - 1) / opt.max_step;
+          prev = int64_t(j);
+        }
+    }
+    row_start_[i + 1] = static_cast<int64_t>(count + row_bridges);
+    bridges += row_bridges;
   }
   for (size_t i = 0; i < n; ++i) row_start_[i + 1] += row_start_[i];
-  kept_ = static_cast<size_t>(row_start_[n]);
-  allocate(kept_);
-  col_.resize(kept_);
+  bridges_ = bridges;
+  kept_ = static_cast<size_t>(row_start_[n]) - bridges;
+  const size_t entries = static_cast<size_t>(row_start_[n]);
+  allocate(entries);
+  if (steps)
+    step_.resize(entries);
+  else
+    col_.resize(entries);
 #pragma omp parallel for schedule(dynamic, 16)
   for (size_t i = 0; i < n; ++i) {
     size_t k = static_cast<size_t>(row_start_[i]);
     if (k == static_cast<size_t>(row_start_[i + 1])) continue;
-    for (size_t j = 0; j < n; ++j)
-      if (is_kept(F[i * n + j], opt.threshold)) {
+    int64_t prev = -1;
+    for (size_t j = 0; j < n; ++j) {
+      if (!is_kept(F[i * n + j], opt.threshold)) continue;
+      if (steps) {
+        for (; int64_t(j) - prev > int64_t(opt.max_step); prev += opt.max_step) {  // a bridge: value 0
+          store(k, 0.0f);
+          step_[k++] = uint16_t(opt.max_step);
+        }
+        store(k, F[i * n + j]);
+        step_[k++] = uint16_t(int64_t(j) - prev);
+        prev = int64_t(j);
+      } else {
         store(k, F[i * n + j]);
         col_[k++] = static_cast<int32_t>(j);
       }
+    }
   }
 }
+
+FormFactorMatrix::FormFactorMatrix(Parts&& p)
+    : n_(p.n), kept_(p.kept), bridges_(p.bridges), opt_(p.opt), scale_(p.scale), f32_(std::move(p.f32)),
+      u16_(std::move(p.u16)), row_start_(std::move(p.row_start)), col_(std::move(p.col)), step_(std::move(p.step)) {}
 
 FFMatrixView FormFactorMatrix::view() const {
   FFMatrixView v;
@@ -167,9 +226,10 @@ FFMatrixView FormFactorMatrix::view() const {
   v.storage = opt_.storage;
   v.values = opt_.values;
   v.data = opt_.values == FFValues::float32 ? static_cast<const void*>(f32_.data()) : u16_.data();
-  if (opt_.storage == FFStorage::csr) {
+  if (opt_.storage != FFStorage::dense) {
     v.row_start = row_start_.data();
-    v.col = col_.data();
+    v.col = opt_.storage == FFStorage::csr ? col_.data() : nullptr;
+    v.step = opt_.storage == FFStorage::compressed ? step_.data() : nullptr;
   }
   v.scale = scale_;
   return v;
@@ -177,7 +237,7 @@ FFMatrixView FormFactorMatrix::view() const {
 
 double FormFactorMatrix::bytes() const {
   return double(f32_.size()) * 4 + double(u16_.size()) * 2 + double(row_start_.size()) * 8 +
-         double(col_.size()) * 4;
+         double(col_.size()) * 4 + double(step_.size()) * 2;
 }
 
 }  // namespace radiosity

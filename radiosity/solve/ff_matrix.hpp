@@ -2,6 +2,11 @@
 //   dense: n×n row-major, every F_ij (the form-factor file's layout, report §3.6);
 //   csr:   compressed sparse rows, only the F_ij that are kept (|F_ij| > threshold): values, int32 column indices
 //          and int64 row starts. Worth it when a threshold or occlusion leaves most F_ij zero.
+//   compressed: csr with each column given as a uint16 step from the previous column of its row (the first from
+//          -1), so an entry costs its value and 2 bytes (6 in float32, 4 in 16 bits) against csr's value and 4. A
+//          step above 65535 (a gap of more than 65535 zeros: scenes of more than 65536 patches only) is bridged by
+//          entries of step 65535 and value 0 ("bridges"), so that values and steps stay one entry each and the
+//          kernels read them in lockstep (csr_kernels.hpp).
 // and the values as
 //   float32: the file's values;
 //   float16: IEEE half, scaled by a power of two so that the largest |F_ij| is just below half's maximum (65504):
@@ -24,12 +29,12 @@
 
 namespace radiosity {
 
-enum class FFStorage { dense, csr };
+enum class FFStorage { dense, csr, compressed };
 enum class FFValues { float32, float16, bfloat16 };
 
 const char* to_string(FFStorage s);
 const char* to_string(FFValues v);
-// "dense" | "csr"; "float32" | "float16" | "bfloat16"; anything else is a UsageError.
+// "dense" | "csr" | "compressed"; "float32" | "float16" | "bfloat16"; anything else is a UsageError.
 FFStorage parse_ff_storage(const std::string& s);
 FFValues parse_ff_values(const std::string& s);
 size_t value_bytes(FFValues v);
@@ -40,9 +45,10 @@ struct FFMatrixView {
   size_t n = 0;
   FFStorage storage = FFStorage::dense;
   FFValues values = FFValues::float32;
-  const void* data = nullptr;          // dense: n·n values, row-major; csr: the kept values, row after row
-  const int64_t* row_start = nullptr;  // csr: n + 1 offsets into data and col
+  const void* data = nullptr;          // dense: n·n values, row-major; csr, compressed: the entries, row after row
+  const int64_t* row_start = nullptr;  // csr, compressed: n + 1 offsets into data and col (or step)
   const int32_t* col = nullptr;        // csr: the column of each kept value
+  const uint16_t* step = nullptr;      // compressed: each entry's column minus the previous one's (row start: -1)
   double scale = 1;                    // F_ij = scale · stored value (float16: 2^-k; 1 otherwise)
 };
 
@@ -59,10 +65,14 @@ inline bool row_needed(const Rgb& reflectivity) {
 // take their plain path over all rows).
 std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity);
 
+// The largest column step one compressed entry holds; a longer gap takes bridges (see above).
+inline constexpr uint32_t kMaxStep = 65535;
+
 struct FFMatrixOptions {
   FFStorage storage = FFStorage::dense;
   FFValues values = FFValues::float32;
   double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
+  uint32_t max_step = kMaxStep;  // compressed: the largest step an entry holds (smaller only to test the bridges)
 };
 
 // Entries kept by the options' threshold in the rows that are needed (what CSR stores), counted in one pass. F may
@@ -70,12 +80,14 @@ struct FFMatrixOptions {
 size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
                   size_t row_begin = 0, size_t row_end = SIZE_MAX);
 
-// Bytes a matrix of these options holds (and one product reads): dense n²·v, csr kept·(v + 4) + 8·(n + 1),
-// v = value_bytes(values).
-double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept);
+// The bridges a compressed matrix of the kept entries needs with steps of at most max_step, counted as count_kept
+// counts (0 when n <= max_step + 1).
+size_t count_bridges(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                     size_t row_begin = 0, size_t row_end = SIZE_MAX, uint32_t max_step = kMaxStep);
 
-// The storage `auto` picks: csr when it holds (and reads) fewer bytes than dense in the same values.
-FFStorage cheaper_storage(FFValues values, size_t n, size_t kept);
+// Bytes a matrix of these options holds (and one product reads): dense n²·v, csr kept·(v + 4) + 8·(n + 1),
+// compressed (kept + bridges)·(v + 2) + 8·(n + 1), v = value_bytes(values).
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges = 0);
 
 // Sets every F_ij with |F_ij| <= threshold to 0, in place (a dense float32 run's threshold: no copy of F), in the
 // first `rows` rows of F (default: all n; an MPI rank: its block). Returns how many non-zero values stay.
@@ -83,21 +95,35 @@ size_t apply_threshold(float* F, size_t n, double threshold, size_t rows = SIZE_
 
 class FormFactorMatrix {
  public:
+  // Its parts as a form-factor file of version 2 holds them (ff_matrix_file.hpp: the reader checks them).
+  struct Parts {
+    size_t n = 0, kept = 0, bridges = 0;
+    FFMatrixOptions opt;
+    double scale = 1;
+    std::vector<float> f32;
+    std::vector<uint16_t> u16;
+    std::vector<int64_t> row_start;
+    std::vector<int32_t> col;
+    std::vector<uint16_t> step;
+  };
+  explicit FormFactorMatrix(Parts&& p);
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
   // rows of patches with reflectivity 0 left empty in csr. Throws UsageError for n beyond int32 column indices.
   FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt);
   FFMatrixView view() const;
-  size_t kept() const { return kept_; }  // values stored (csr) or non-zero (dense)
+  size_t kept() const { return kept_; }  // values kept (csr, compressed: bridges not counted) or non-zero (dense)
+  size_t bridges() const { return bridges_; }
   double bytes() const;                   // what it holds
 
  private:
-  size_t n_, kept_ = 0;
+  size_t n_, kept_ = 0, bridges_ = 0;
   FFMatrixOptions opt_;
   double scale_ = 1;
   std::vector<float> f32_;
   std::vector<uint16_t> u16_;  // float16 or bfloat16 bit patterns
   std::vector<int64_t> row_start_;
   std::vector<int32_t> col_;
+  std::vector<uint16_t> step_;
 };
 
 }  // namespace radiosity

@@ -11,53 +11,17 @@
 #include <optional>
 #include <stdexcept>
 #include <vector>
-#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
-#include <immintrin.h>
-#endif
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/csr_kernels.hpp"
 #include "radiosity/solve/ff_matrix.hpp"
-#include "radiosity/solve/half.hpp"
 #include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/stored_values.hpp"
 
 namespace radiosity {
 
 // The dense product computes kGroup rows at a time (see matvec_rows).
 inline constexpr size_t kGroup = 4;
-
-#if defined(__AVX2__) && defined(__FMA__) && defined(__F16C__)
-#define HPCGI_AVX2_SUMS 1
-#endif
-
-// How the kernels read a stored form factor: as float, whatever it is stored as (ff_matrix.hpp). get reads one
-// value; load8 (AVX2) eight consecutive ones into a vector of floats: F16C's vcvtph2ps widens eight halves in one
-// instruction, a bfloat16 is widened by a zero-extension and a shift.
-struct Float32Values {
-  using stored = float;
-  static float get(const float* p, size_t k) { return p[k]; }
-#ifdef HPCGI_AVX2_SUMS
-  static __m256 load8(const float* p) { return _mm256_loadu_ps(p); }
-#endif
-};
-struct Float16Values {
-  using stored = uint16_t;
-  static float get(const uint16_t* p, size_t k) { return half_to_float(p[k]); }
-#ifdef HPCGI_AVX2_SUMS
-  static __m256 load8(const uint16_t* p) {
-    return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
-  }
-#endif
-};
-struct BFloat16Values {
-  using stored = uint16_t;
-  static float get(const uint16_t* p, size_t k) { return bfloat16_to_float(p[k]); }
-#ifdef HPCGI_AVX2_SUMS
-  static __m256 load8(const uint16_t* p) {
-    const __m256i w = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
-    return _mm256_castsi256_ps(_mm256_slli_epi32(w, 16));
-  }
-#endif
-};
 
 // How far ahead of its loads sums4 asks for each row of F. The hardware prefetcher alone kept a Jacobi step on
 // room3 (float32, 2 threads, this project's EPYC VM) at 13.4-17.4 ms; with 1 KiB to 4 KiB of software prefetch
@@ -203,37 +167,6 @@ template <class Val, class V>
   }
 }
 
-template <class Val, class V>
-[[gnu::noinline]] void matvec_csr_rows(const typename Val::stored* F, const int32_t* col, const int64_t* start,
-                                       const V& x, V& y, const V& rho, const V& e, typename V::value_type a,
-                                       typename V::value_type c, typename V::value_type d, size_t i0, size_t i1) {
-  using T = typename V::value_type;
-  constexpr size_t S = V::kStep;
-  const T* __restrict x0 = x.data(0);
-  const T* __restrict x1 = x.data(1);
-  const T* __restrict x2 = x.data(2);
-  for (size_t i = i0; i < i1; ++i) {
-    const size_t k0 = size_t(start[i]), k1 = size_t(start[i + 1]);
-    T s0 = 0, s1 = 0, s2 = 0;
-    if constexpr (V::kChannels == 3) {
-#pragma omp simd reduction(+ : s0, s1, s2)
-      for (size_t k = k0; k < k1; ++k) {
-        const size_t j = size_t(col[k]) * S;
-        const T f = Val::get(F, k);
-        s0 += f * x0[j];
-        s1 += f * x1[j];
-        s2 += f * x2[j];
-      }
-      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s1 + d * e(i, 1);
-      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s2 + d * e(i, 2);
-    } else {
-#pragma omp simd reduction(+ : s0)
-      for (size_t k = k0; k < k1; ++k) s0 += T(Val::get(F, k)) * x0[col[k]];
-    }
-    y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s0 + d * e(i, 0);
-  }
-}
-
 // y = a·x + d·e on rows whose reflectivity is 0 in every channel: their ρ ⊙ (F x) is 0 whatever F x is.
 template <class V>
 void matvec_skipped_row(const V& x, V& y, const V& e, typename V::value_type a, typename V::value_type d, size_t i) {
@@ -273,7 +206,8 @@ void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vect
 }
 
 // The product for any stored matrix (ff_matrix.hpp): dispatched once per pass to the kernel of its storage and
-// values. The float16 scale is folded into c (a power of two: exact).
+// values (dense here, csr and compressed in csr_kernels.hpp). The float16 scale is folded into c (a power of two:
+// exact).
 template <class Exec, class V>
 void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows, const V& x, V& y,
                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
@@ -283,12 +217,10 @@ void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int3
   auto run = [&](auto values) {
     using Val = decltype(values);
     const auto* data = static_cast<const typename Val::stored*>(F.data);
-    if (F.storage == FFStorage::csr)
-      ex.rows(x.size(), [&](size_t i0, size_t i1) {
-        matvec_csr_rows<Val>(data, F.col, F.row_start, x, y, rho, e, a, cs, d, i0, i1);
-      });
-    else
+    if (F.storage == FFStorage::dense)
       dense_matvec<Val>(ex, data, rows, x, y, rho, e, a, cs, d);
+    else
+      sparse_matvec<Val>(ex, F, x, y, rho, e, a, cs, d);
   };
   switch (F.values) {
     case FFValues::float32: run(Float32Values{}); break;

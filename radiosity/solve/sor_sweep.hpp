@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/csr_kernels.hpp"
 #include "radiosity/solve/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/linalg.hpp"
@@ -84,17 +85,16 @@ template <class Val, class V>
       sd[0] = d0;
     }
   };
-  if (F.storage == FFStorage::csr) {
+  if (F.storage != FFStorage::dense) {
     for (size_t i = b0; i < b1; ++i) {
       T so[3] = {0, 0, 0}, sd[3] = {0, 0, 0};
       if (needed(i))
-        for (int64_t k = F.row_start[i]; k < F.row_start[i + 1]; ++k) {
-          const size_t j = size_t(F.col[k]);
-          const T f = Val::get(data, size_t(k));
+        for_each_entry(F, i, [&](size_t k, size_t j) {
+          const T f = Val::get(data, k);
           for (int ch = 0; ch < C; ++ch) so[ch] += f * xc[ch][j];
           if (j >= b0 && j < i)
             for (int ch = 0; ch < C; ++ch) sd[ch] += f * dc[ch][j - b0];
-        }
+        });
       update(i, so, sd);
     }
   } else {

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/errors.hpp"
+#include "radiosity/solve/csr_kernels.hpp"
 #include "radiosity/solve/half.hpp"
 
 namespace radiosity {
@@ -89,8 +90,8 @@ Rgb row_product(const FFMatrixView& F, Get get, size_t i, const std::vector<Rgb>
     s1 += f * B[j][1];
     s2 += f * B[j][2];
   };
-  if (F.storage == FFStorage::csr)
-    for (size_t k = size_t(F.row_start[i]); k < size_t(F.row_start[i + 1]); ++k) add(k, size_t(F.col[k]));
+  if (F.storage != FFStorage::dense)
+    for_each_entry(F, i, add);
   else
     for (size_t j = 0; j < F.n; ++j) add(i * F.n + j, j);
   return {s0 * F.scale, s1 * F.scale, s2 * F.scale};
@@ -103,7 +104,7 @@ Rgb residual_squares(const System& sys, const std::vector<Rgb>& B) {
   if (B.size() != sys.n) throw hpcgi::UsageError("relative_residual: B has the wrong size");
   const size_t first = holds_all_rows(sys) ? 0 : sys.rows_begin, last = holds_all_rows(sys) ? sys.n : sys.rows_end;
   const FFMatrixView F = system_matrix(sys);
-  if (first != 0 && F.storage == FFStorage::csr)
+  if (first != 0 && F.storage != FFStorage::dense)
     throw hpcgi::UsageError("relative_residual: a rank's block of rows is held dense only");
   const auto* f32 = static_cast<const float*>(F.data);
   const auto* u16 = static_cast<const uint16_t*>(F.data);

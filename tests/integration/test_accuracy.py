@@ -89,7 +89,7 @@ def test_coloured_scene_solves_three_channels(tmp_path):
 @pytest.mark.parametrize("args", [[], ["--precision", "double"], ["--method", "bicgstab"], ["--steps", "20"]])
 def test_csr_and_dense_agree_at_threshold_zero(tmp_path, args):
     scene, ff, _ = scene_with_ff(tmp_path, room_xml(colour_walls=True))
-    dense, Bd = solve(tmp_path, scene, ff, *args, name="dense")
+    dense, Bd = solve(tmp_path, scene, ff, "--storage", "dense", *args, name="dense")
     csr, Bc = solve(tmp_path, scene, ff, "--storage", "csr", *args, name="csr")
     assert csr["params"]["storage"] == "csr" and dense["params"]["storage"] == "dense"
     assert max_rel_diff(Bc, Bd) <= 1e-6
@@ -101,17 +101,19 @@ def test_csr_and_dense_agree_at_threshold_zero(tmp_path, args):
 
 def test_storage_threshold_and_16_bits_cost_error_and_save_memory(tmp_path):
     scene, ff, _ = scene_with_ff(tmp_path, room_xml(colour_walls=True))
-    base, _ = solve(tmp_path, scene, ff, "--tol", "1e-8", "--precision", "double")
+    base, _ = solve(tmp_path, scene, ff, "--tol", "1e-8", "--precision", "double", "--storage", "dense")
     assert base["result"]["error_vs_reference"] <= 1e-7
     assert base["result"]["reference"]["converged"] is True
     auto, _ = solve(tmp_path, scene, ff, "--tol", "1e-8", "--precision", "double", "--storage", "auto",
                     "--threshold", "1e-3")
     assert auto["params"]["storage_requested"] == "auto"
     n2 = base["params"]["patches"] ** 2
-    assert auto["params"]["storage"] == ("csr" if auto["result"]["density"] < 0.5 else "dense")
+    kept, n = auto["result"]["kept"], base["params"]["patches"]
+    assert auto["params"]["storage"] == ("compressed" if 6 * kept + 8 * (n + 1) < 4 * n2 else "dense")
     assert auto["result"]["kept"] < base["result"]["kept"]
     assert auto["result"]["error_vs_reference"] > base["result"]["error_vs_reference"]
-    half, _ = solve(tmp_path, scene, ff, "--tol", "1e-8", "--precision", "double", "--ff-precision", "float16")
+    half, _ = solve(tmp_path, scene, ff, "--tol", "1e-8", "--precision", "double", "--ff-precision", "float16",
+                    "--storage", "dense")
     assert half["result"]["matrix_storage_bytes"] == 2 * n2
     assert 1e-6 < half["result"]["error_vs_reference"] < 1e-2
     assert half["verify"]["agreed"] is True  # checked on the matrix it solved: its own rounding is no disagreement

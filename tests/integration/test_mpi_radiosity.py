@@ -119,7 +119,7 @@ def openmp_answers(files):
         for layout in ("aos", "soa"):
             o = d / f"omp-{method}-{layout}.xml"
             rec = record(radiosity("solve", out["scene"], "--ff", out["serial"][0], "--method", method,
-                                   "--layout", layout, "--tol", "1e-6", "--backend", "openmp", "--threads", "2",
+                                   "--layout", layout, "--tol", "1e-6", "--backend", "openmp", "--storage", "dense", "--threads", "2",
                                    "--output", o, "--json", "--quiet"))
             answers[method, layout] = (rec, radiosities(o))
     return answers
@@ -165,7 +165,7 @@ def test_jacobi_fixed_steps_give_the_same_bits_on_any_ranks(files, tmp_path):
         o = tmp_path / f"{ranks}.xml"
         args = ["solve", out["scene"], "--ff", out["serial"][0], "--steps", "20", "--precision",
                 "double", "--output", o, "--json", "--quiet", "--no-verify"]
-        record(radiosity(*args, "--backend", "openmp") if ranks is None else radiosity(*args, "--backend", "mpi",
+        record(radiosity(*args, "--backend", "openmp", "--storage", "dense") if ranks is None else radiosity(*args, "--backend", "mpi",
                                                                                         np_=ranks))
         answers.append(radiosities(o))
     assert np.array_equal(answers[0], answers[1])
@@ -255,7 +255,7 @@ def test_too_large_for_one_rank_is_computed_and_solved_on_four(large, tmp_path):
     o, ref = tmp_path / "mpi.xml", tmp_path / "omp.xml"
     rec = record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "mpi", *LIMIT, "--tol", "1e-6",
                            "--output", o, "--json", "--quiet", np_=4))
-    record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "openmp", "--tol", "1e-6",
+    record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "openmp", "--storage", "dense", "--tol", "1e-6",
                      "--output", ref, "--json", "--quiet"))
     assert rel_diff(radiosities(o), radiosities(ref)) <= 1e-6
     n = rec["params"]["patches"]

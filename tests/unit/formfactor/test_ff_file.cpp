@@ -117,10 +117,18 @@ TEST_F(FormFactorFile, UnsupportedVersionIsRefused) {
   const std::string p = path("scene.ff");
   save_form_factors(p, mesh_, ff_);
   std::string b = bytes_of(p);
-  const uint32_t version = 2;
+  uint32_t version = 3;
   std::memcpy(&b[8], &version, 4);
   write_bytes(p, b);
-  EXPECT_NE(refusal(p, mesh_).find("version 2 (this program reads version 1)"), std::string::npos) << refusal(p, mesh_);
+  EXPECT_NE(refusal(p, mesh_).find("version 3 (this program reads versions 1 and 2)"), std::string::npos)
+      << refusal(p, mesh_);
+  // version 2 is sparse: a dense storage name there is refused
+  version = 2;
+  std::memcpy(&b[8], &version, 4);
+  write_bytes(p, b);
+  EXPECT_NE(refusal(p, mesh_).find("storage 'dense', precision 'float32' (version 2 holds csr or compressed"),
+            std::string::npos)
+      << refusal(p, mesh_);
 }
 
 TEST_F(FormFactorFile, FileOfAnotherMeshIsRefusedNamingBoth) {

@@ -1,0 +1,30 @@
+// What `--storage auto` (the default) picks: of the storages the backend reads, the one whose product moves the
+// fewest bytes of F per step (what Kernels::matrix_bytes reports): dense v·n per computed row, csr kept·(v + 4),
+// compressed (kept + bridges)·(v + 2), plus 8·(n + 1) of row starts for both sparse ones (v: the value's bytes).
+// Everything else a step moves (the vectors, O(n)) is the same in every storage. A tie keeps dense.
+#pragma once
+#include <cstddef>
+#include <vector>
+
+#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/solve.hpp"
+
+namespace radiosity {
+
+struct StorageCounts {
+  size_t n = 0;            // patches
+  size_t kept = 0;         // F_ij kept in the rows that are needed (count_kept)
+  size_t bridges = 0;      // compressed's bridges (count_bridges)
+  size_t rows_needed = 0;  // rows a dense product computes (patches whose reflectivity is not 0)
+};
+
+// The bytes of F one product reads in this storage.
+double step_bytes(FFStorage storage, FFValues values, const StorageCounts& c);
+
+// The storages a backend reads: every one for those that read any (serial, openmp), else dense.
+std::vector<FFStorage> readable_storages(const SolveBackend& b);
+
+// The storage of `readable` with the fewest step_bytes (dense on a tie).
+FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c);
+
+}  // namespace radiosity

@@ -1,0 +1,314 @@
+// The sparse product (csr_kernels.hpp) and the compressed storage (ff_matrix.hpp): the same answers as dense, the
+// same bits wherever the summation order is the same, the bridges of long gaps, the split of rows by entries, and
+// what --storage auto picks (storage_choice.hpp).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <random>
+#include <string>
+
+#include "common/errors.hpp"
+#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/scene/analytic.hpp"
+#include "radiosity/solve/csr_kernels.hpp"
+#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/ff_matrix_file.hpp"
+#include "radiosity/solve/solve.hpp"
+#include "radiosity/solve/storage_choice.hpp"
+#include "reference.hpp"
+
+using namespace radiosity;
+using namespace solve_test;
+
+namespace {
+
+// random_problem with about `zero_share` of F set to 0 in runs (occlusion hides neighbouring patches together).
+Problem occluded_problem(size_t n, unsigned seed, double zero_share) {
+  Problem p = random_problem(n, seed);
+  std::mt19937_64 rng(seed + 7);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = 0; j < n;) {
+      const size_t run = 1 + size_t(u(rng) * 12);
+      const bool zero = u(rng) < zero_share;
+      for (size_t r = 0; r < run && j < n; ++r, ++j)
+        if (zero) p.F[i * n + j] = 0;
+    }
+  return p;
+}
+
+SolveConfig config(const std::string& backend, const std::string& layout, const std::string& precision, long steps,
+                   int threads = 2, const std::string& method = "jacobi") {
+  SolveConfig c;
+  c.backend = backend;
+  c.layout = layout;
+  c.method = method;
+  c.precision = precision;
+  c.steps = steps;
+  c.tol = precision == "float" ? 1e-6 : 1e-12;
+  c.threads = threads;
+  return c;
+}
+
+FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, uint32_t max_step = kMaxStep) {
+  FFMatrixOptions o;
+  o.storage = storage;
+  o.values = values;
+  o.max_step = max_step;
+  return FormFactorMatrix(p.F.data(), p.sys.n, p.sys.reflectivity, o);
+}
+
+System system_of(const Problem& p, const FormFactorMatrix& m) {
+  System s = p.sys;
+  s.F = nullptr;
+  s.stored = m.view();
+  return s;
+}
+
+}  // namespace
+
+// The check: every storage with float32 values gives the dense float32 answer within 1e-6 relative, on
+// every CPU backend, layout, precision and method (n = 203: rows that end in a partial group of 8 entries).
+TEST(Sparse, EveryStorageGivesTheDenseAnswer) {
+  const Problem p = occluded_problem(203, 71, 0.8);
+  for (FFStorage st : {FFStorage::csr, FFStorage::compressed}) {
+    const FormFactorMatrix m = stored(p, st, FFValues::float32);
+    const System s = system_of(p, m);
+    for (const char* backend : {"serial", "openmp"})
+      for (const char* layout : {"aos", "soa"})
+        for (const char* precision : {"float", "double"})
+          for (const auto& [method, steps] : {std::pair{"jacobi", 32L}, {"jacobi", 0L}, {"bicgstab", 0L},
+                                              {"gauss-seidel", 0L}}) {
+            SCOPED_TRACE(std::string(to_string(st)) + " " + backend + " " + layout + " " + precision + " " + method +
+                         " " + std::to_string(steps));
+            const SolveConfig c = config(backend, layout, precision, steps, 2, method);
+            const SolveResult dense = solve(p.sys, c), sparse = solve(s, c);
+            EXPECT_EQ(sparse.status, dense.status);
+            EXPECT_LE(rel_diff(sparse.B, dense.B), 1e-6);
+            EXPECT_EQ(sparse.matrix_bytes, m.bytes());
+          }
+  }
+}
+
+// A row's sum does not depend on the column code, the layout or the thread count: csr and compressed with the same
+// values give the same bits, AOS and SOA too, serial and openmp with 1, 2, 3 or 5 threads too (32 fixed steps).
+TEST(Sparse, SameSummationOrderGivesTheSameBits) {
+  const Problem p = occluded_problem(203, 73, 0.7);
+  for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16})
+    for (const char* precision : {"float", "double"}) {
+      SCOPED_TRACE(std::string(to_string(v)) + " " + precision);
+      const FormFactorMatrix csr = stored(p, FFStorage::csr, v), comp = stored(p, FFStorage::compressed, v);
+      const SolveResult want = solve(system_of(p, csr), config("serial", "aos", precision, 32, 1));
+      for (const FormFactorMatrix* m : {&csr, &comp})
+        for (const char* layout : {"aos", "soa"})
+          for (int threads : {1, 2, 3, 5})
+            EXPECT_EQ(solve(system_of(p, *m), config("openmp", layout, precision, 32, threads)).B, want.B)
+                << to_string(m == &csr ? FFStorage::csr : FFStorage::compressed) << " " << layout << " " << threads;
+    }
+}
+
+// 16-bit values cost their rounding and no more: compressed float16 is as close to dense float32 as dense float16
+// is (the speed-accuracy table's float16 error), and bfloat16 as close as dense bfloat16.
+TEST(Sparse, SixteenBitCompressedCostsTheRoundingOfItsValues) {
+  const Problem p = occluded_problem(200, 75, 0.8);
+  const SolveConfig c = config("openmp", "aos", "double", 0);
+  const SolveResult exact = solve(p.sys, c);
+  for (const auto& [v, unit] : {std::pair{FFValues::float16, 0x1p-11}, {FFValues::bfloat16, 0x1p-8}}) {
+    SCOPED_TRACE(to_string(v));
+    const FormFactorMatrix dense16 = stored(p, FFStorage::dense, v), comp = stored(p, FFStorage::compressed, v);
+    const double d_dense = rel_diff(solve(system_of(p, dense16), c).B, exact.B);
+    const double d_comp = rel_diff(solve(system_of(p, comp), c).B, exact.B);
+    EXPECT_GT(d_comp, 0);
+    EXPECT_LE(d_comp, 10 * unit);
+    EXPECT_NEAR(d_comp, d_dense, 1e-9);  // the same rounded values; only the sums' order differs
+    EXPECT_DOUBLE_EQ(comp.bytes(), 4.0 * double(comp.kept()) + 8 * 201);
+  }
+}
+
+// A gap longer than the largest step is bridged by entries of value 0: counted alike by count_bridges and the
+// matrix, and the answer unchanged (max_step 3 here makes every long gap of a small matrix a bridge).
+TEST(Sparse, LongGapsAreBridged) {
+  const Problem p = occluded_problem(150, 77, 0.85);
+  const FormFactorMatrix plain = stored(p, FFStorage::compressed, FFValues::float32);
+  EXPECT_EQ(plain.bridges(), 0u);
+  for (uint32_t max_step : {1u, 3u, 40u}) {
+    SCOPED_TRACE(max_step);
+    const FormFactorMatrix m = stored(p, FFStorage::compressed, FFValues::float32, max_step);
+    EXPECT_EQ(m.kept(), plain.kept());
+    EXPECT_EQ(m.bridges(), count_bridges(p.F.data(), p.sys.n, p.sys.reflectivity, 0, 0, SIZE_MAX, max_step));
+    if (max_step < 40) {
+      EXPECT_GT(m.bridges(), 0u);
+    }
+    EXPECT_DOUBLE_EQ(m.bytes(), 6.0 * double(m.kept() + m.bridges()) + 8 * 151);
+    const FFMatrixView v = m.view();
+    for (size_t i = 0; i < p.sys.n; ++i) {  // every kept F_ij at its column, every bridge 0
+      size_t kept = 0;
+      for_each_entry(v, i, [&](size_t k, size_t j) {
+        const float f = static_cast<const float*>(v.data)[k];
+        ASSERT_LT(j, p.sys.n);
+        if (f != 0) {
+          EXPECT_EQ(f, p.F[i * p.sys.n + j]);
+          ++kept;
+        }
+      });
+      size_t want = 0;
+      for (size_t j = 0; j < p.sys.n; ++j) want += p.F[i * p.sys.n + j] != 0;
+      EXPECT_EQ(kept, want) << "row " << i;
+    }
+    const SolveConfig c = config("openmp", "soa", "double", 32);
+    EXPECT_LE(rel_diff(solve(system_of(p, m), c).B, solve(system_of(p, plain), c).B), 1e-14);
+  }
+  FFMatrixOptions bad;
+  bad.storage = FFStorage::compressed;
+  bad.max_step = 0;
+  EXPECT_THROW(FormFactorMatrix(p.F.data(), p.sys.n, p.sys.reflectivity, bad), hpcgi::UsageError);
+}
+
+// Threads share rows by entries: the blocks cover the rows in order, start on multiples of kRowAlign, and on rows
+// of very different lengths each holds about its share of the cost (at most one block of kRowAlign rows more).
+TEST(Sparse, RowsAreSplitByEntries) {
+  const size_t n = 1000;
+  std::vector<int64_t> start(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) start[i + 1] = start[i] + (i < 100 ? 2000 : 10);  // the first rows are long
+  for (size_t r0 : {size_t(0), size_t(37)})
+    for (int nt : {1, 2, 3, 7}) {
+      SCOPED_TRACE(std::to_string(r0) + " " + std::to_string(nt));
+      auto cost = [&](size_t a, size_t b) { return double(start[b] - start[a]) + double(kRowCost) * double(b - a); };
+      size_t at = r0;
+      for (int t = 0; t < nt; ++t) {
+        const auto [b, e] = entry_block(start.data(), r0, n, t, nt);
+        EXPECT_EQ(b, at);
+        EXPECT_TRUE(b == n || (b - r0) % kRowAlign == 0);
+        EXPECT_LE(cost(b, e), cost(r0, n) / nt + cost(0, kRowAlign) + 1);
+        at = e;
+      }
+      EXPECT_EQ(at, n);
+    }
+}
+
+// auto: the fewest bytes per step of the storages the backend reads. Room3's density (15%) takes compressed in
+// float32 and 16 bits; a closed box (83%) keeps dense; a backend that reads dense only gets dense.
+TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
+  const SolveBackend* openmp = nullptr;
+  const SolveBackend* cuda = nullptr;
+  for (const SolveBackend& b : solve_backends()) {
+    if (b.name == "openmp") openmp = &b;
+    if (b.name == "cuda") cuda = &b;
+  }
+  ASSERT_TRUE(openmp && cuda);
+  const StorageCounts room3{9680, 14292925, 0, 9680 - 12};
+  for (FFValues v : {FFValues::float32, FFValues::float16})
+    EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, room3), FFStorage::compressed) << to_string(v);
+  EXPECT_EQ(fewest_bytes_storage(readable_storages(*cuda), FFValues::float32, room3), FFStorage::dense);
+  const StorageCounts box{600, 300000, 0, 600};
+  for (FFValues v : {FFValues::float32, FFValues::float16})
+    EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, box), FFStorage::dense) << to_string(v);
+  // csr only where it is the only sparse storage read; dense on a tie
+  EXPECT_EQ(fewest_bytes_storage({FFStorage::dense, FFStorage::csr}, FFValues::float32, room3), FFStorage::csr);
+  const StorageCounts tie{100, 0, 0, 0};
+  EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), FFValues::float32, tie), FFStorage::dense);
+  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::compressed, FFValues::float16, room3), 4.0 * 14292925 + 8 * 9681);
+  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::dense, FFValues::float32, room3), 4.0 * 9680 * (9680 - 12));
+  EXPECT_EQ(parse_ff_storage("compressed"), FFStorage::compressed);
+}
+
+// The sparse form-factor file (version 2): what is written is read back to the bit, and solves as the matrix it was
+// made from; a damaged file is refused with one line, and the dense readers refuse a sparse file.
+class SparseFile : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::path(::testing::TempDir()) /
+           ("hpcgi_sparse_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+    mesh_ = two_facing_squares(6);
+    p_.emplace(occluded_problem(mesh_.size(), 79, 0.75));
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  FormFactorMatrix every_row(FFStorage st, FFValues v) const {
+    FFMatrixOptions o;
+    o.storage = st;
+    o.values = v;
+    return FormFactorMatrix(p().F.data(), p().sys.n, std::vector<Rgb>(p().sys.n, Rgb{1, 1, 1}), o);
+  }
+  std::string bytes_of(const std::string& f) const {
+    std::ifstream in(f, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  void write_bytes(const std::string& f, const std::string& b) const {
+    std::ofstream(f, std::ios::binary | std::ios::trunc).write(b.data(), std::streamsize(b.size()));
+  }
+  // The message of the refusal to load f (empty if it loads).
+  std::string refusal(const std::string& f) const {
+    try {
+      load_form_factor_matrix(f, mesh_, nullptr);
+    } catch (const hpcgi::UsageError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  std::filesystem::path dir_;
+  Mesh mesh_;
+  std::optional<Problem> p_;
+  const Problem& p() const { return *p_; }
+  HemicubeParams params_{64, HemicubeWeights::exact, 0};
+};
+
+TEST_F(SparseFile, RoundTripKeepsEveryBitAndSolvesTheSame) {
+  for (FFStorage st : {FFStorage::csr, FFStorage::compressed})
+    for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16}) {
+      SCOPED_TRACE(std::string(to_string(st)) + " " + to_string(v));
+      const FormFactorMatrix m = every_row(st, v);
+      const std::string f = path("f.ff");
+      save_form_factor_matrix(f, mesh_, params_, m);
+      EXPECT_EQ(double(std::filesystem::file_size(f)),
+                double(kFormFactorHeaderBytes) + sparse_payload_bytes(st, v, m.view().n, m.kept() + m.bridges()) + 8);
+      HemicubeParams read_params;
+      const FormFactorMatrix back = load_form_factor_matrix(f, mesh_, &read_params);
+      EXPECT_EQ(read_params.resolution, 64);
+      EXPECT_EQ(back.kept(), m.kept());
+      EXPECT_EQ(back.bytes(), m.bytes());
+      EXPECT_EQ(back.view().scale, m.view().scale);
+      const SolveConfig c = config("openmp", "aos", "float", 16);
+      EXPECT_EQ(solve(system_of(p(), back), c).B, solve(system_of(p(), m), c).B);
+      EXPECT_THROW(check_form_factor_file(f, mesh_), hpcgi::UsageError);  // the dense readers refuse it
+      try {
+        load_form_factors(f, mesh_);
+        ADD_FAILURE() << "a dense reader loaded a sparse file";
+      } catch (const hpcgi::UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("version 2"), std::string::npos) << e.what();
+      }
+    }
+}
+
+TEST_F(SparseFile, DamagedFilesAreRefused) {
+  const std::string f = path("f.ff");
+  save_form_factor_matrix(f, mesh_, params_, every_row(FFStorage::compressed, FFValues::float16));
+  const std::string good = bytes_of(f);
+  std::string b = good;
+  b[good.size() - 20] ^= 1;  // a value's bit
+  write_bytes(f, b);
+  EXPECT_NE(refusal(f).find("checksum mismatch"), std::string::npos) << refusal(f);
+  write_bytes(f, good.substr(0, good.size() - 3));
+  EXPECT_NE(refusal(f).find("truncated"), std::string::npos) << refusal(f);
+  // A step that takes a row past the last column, with its checksum made right: the structure check refuses it.
+  b = good;
+  const size_t n = mesh_.size(), steps_at = kFormFactorHeaderBytes + 32 + 8 * (n + 1);
+  b[steps_at] = char(0xff), b[steps_at + 1] = char(0xff);
+  Fnv64 sum;
+  sum.update(b.data() + kFormFactorHeaderBytes, b.size() - kFormFactorHeaderBytes - 8);
+  const uint64_t h = sum.finish();
+  std::memcpy(&b[b.size() - 8], &h, 8);
+  write_bytes(f, b);
+  EXPECT_NE(refusal(f).find("column 65534"), std::string::npos) << refusal(f);
+  // a dense file is no sparse one
+  FormFactors dense{n, p().F, params_};
+  save_form_factors(f, mesh_, dense);
+  EXPECT_NE(refusal(f).find("version 1"), std::string::npos) << refusal(f);
+}
