@@ -193,7 +193,9 @@ def test_form_factor_file_deleted_between_tasks(tmp_path):
     assert records(tmp_path, "table42") == []
     # a re-run of both finds the file missing, makes it again, then finishes the solve
     assert run([ROOT / "slurm" / "run-local", "formfactors", "table42"], env=e).returncode == 0
-    assert len(records(tmp_path, "formfactors")) == 2 and len(records(tmp_path, "table42")) == len(cases("table42"))
+    # scene1's form factors twice (ci's coarse room3, when RRV's scenes are here, once)
+    assert sum("scene1.xml" in r["argv"][2] for r in records(tmp_path, "formfactors")) == 2
+    assert len(records(tmp_path, "table42")) == len(cases("table42"))
 
 
 def test_audit_makes_the_form_factors_a_case_reads(tmp_path):
