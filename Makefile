@@ -37,8 +37,8 @@ LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-r
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
 # one-process version of its collectives, and the files that only exist for MPI are left out.
-MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi.cpp radiosity/dist/ff_mpi.cpp
-MPI_ONLY    := radiosity/solve/mpi.cpp radiosity/dist/ff_mpi.cpp
+MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/dist/ff_mpi.cpp
+MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/dist/ff_mpi.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
 MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp
@@ -46,8 +46,8 @@ MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(i
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
-MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/solve/*.cpp)) \
-                  $(if $(HAVE_CUDA),$(wildcard radiosity/solve/*.cu))
+MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/solve/*.cpp radiosity/solve/*/*.cpp)) \
+                  $(if $(HAVE_CUDA),$(wildcard radiosity/solve/gpu/*.cu))
 MOD_dist       := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/dist/*.cpp))
 MOD_render     := $(wildcard radiosity/render/*.cpp)
 MOD_app        := $(wildcard radiosity/app/*.cpp)

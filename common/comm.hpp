@@ -1,7 +1,7 @@
 // The few collective operations the radiosity program needs, behind one small interface (TeaLeaf's MPI shim): in a
 // build with MPI they are MPI's, on MPI_COMM_WORLD; in a build without it, or before MPI is initialised, they are
 // what they mean for one process (a sum of one value is that value). The solvers' own communication (the
-// vector gathers) is MPI code in radiosity/solve/mpi.cpp; what is here serves the commands around it: agreeing on
+// vector gathers) is MPI code in radiosity/solve/mpi/mpi.cpp; what is here serves the commands around it: agreeing on
 // a refusal, summing counts for the record, gathering each rank's numbers.
 #pragma once
 #include <cstdint>

@@ -236,7 +236,7 @@ class Driver:
             steps.append(Step(f"{c.experiment} case {c.index}: {c.line}", c.experiment, case_estimate(c),
                               [Cmd(argv, c.experiment, c.case_id, check, True)]))
         # Derived from the same lines: Table 4.5 with --overlap (not at d = 0 and 1, where nothing is copied and
-        # --overlap changes nothing: radiosity/solve/hybrid.cu), Tables 4.3/4.4 with RRV's 32 fixed steps.
+        # --overlap changes nothing: radiosity/solve/gpu/hybrid.cu), Tables 4.3/4.4 with RRV's 32 fixed steps.
         for c in gpu:
             if c.experiment == "table45" and not any(c.line.endswith(e) for e in ("--distribution 0.0",
                                                                                   "--distribution 1.0")):

@@ -21,7 +21,7 @@
 #include "radiosity/formfactor/diagnostics.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
-#include "radiosity/solve/ff_matrix_file.hpp"
+#include "radiosity/solve/storage/ff_matrix_file.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif

@@ -22,8 +22,8 @@
 #include "radiosity/render/camera.hpp"
 #include "radiosity/render/png_writer.hpp"
 #include "radiosity/render/render.hpp"
-#include "radiosity/solve/exec.hpp"
-#include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/cpu/linalg.hpp"
 
 namespace radiosity::app {
 namespace {

@@ -26,10 +26,10 @@
 #include "radiosity/render/png_writer.hpp"
 #include "radiosity/render/render.hpp"
 #include "radiosity/scene/rrv_writer.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/mesh_map.hpp"
-#include "radiosity/solve/ff_matrix_file.hpp"
-#include "radiosity/solve/storage_choice.hpp"
+#include "radiosity/solve/storage/ff_matrix_file.hpp"
+#include "radiosity/solve/storage/storage_choice.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif

@@ -12,8 +12,8 @@
 // A file's size is therefore known from its header, and a truncated file is told from a corrupted one.
 //
 // Version 2 (issue 17) holds F sparse: the same header with version 2, storage "csr" or "csrd16" (compressed),
-// precision "float32", "float16" or "bf16" (bfloat16) and at 64 the bytes of the payload that follows (radiosity/solve/ff_matrix.hpp
-// describes the storages; radiosity/solve/ff_matrix_file.hpp writes and reads the payload); then the payload's
+// precision "float32", "float16" or "bf16" (bfloat16) and at 64 the bytes of the payload that follows (radiosity/solve/storage/ff_matrix.hpp
+// describes the storages; radiosity/solve/storage/ff_matrix_file.hpp writes and reads the payload); then the payload's
 // checksum as above. Dense files stay version 1, byte for byte as before, and every reader of dense F (relight,
 // web, backend mpi, the peers) refuses a version 2 file with one line.
 //

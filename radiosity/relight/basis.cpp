@@ -7,8 +7,8 @@
 
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/exec.hpp"
-#include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/cpu/linalg.hpp"
 
 namespace radiosity::relight {
 

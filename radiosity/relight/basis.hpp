@@ -11,7 +11,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/relight/entities.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity::relight {
 

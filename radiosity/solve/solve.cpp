@@ -7,7 +7,7 @@
 #include "common/errors.hpp"
 #include "common/timer.hpp"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/methods.hpp"
+#include "radiosity/solve/methods/methods.hpp"
 
 namespace radiosity {
 namespace {

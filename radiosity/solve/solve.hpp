@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/stop_rule.hpp"
+#include "radiosity/solve/methods/stop_rule.hpp"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity {
@@ -80,7 +80,7 @@ struct SolveResult {
   double transfer_bytes = 0;      // bytes copied between host and device during the solve
   std::map<std::string, std::string> backend_info;  // GPU backends: the GPU, CUDA versions, hybrid's row split
   // Backend mpi: one value per rank, in rank order (rows, bytes of F held, bytes received per iteration, seconds in
-  // MPI calls, ...; radiosity/solve/mpi.cpp says which), and counts that are the same on every rank.
+  // MPI calls, ...; radiosity/solve/mpi/mpi.cpp says which), and counts that are the same on every rank.
   std::map<std::string, std::vector<double>> per_rank;
   std::map<std::string, double> comm;
 };

@@ -5,8 +5,8 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/csr_kernels.hpp"
-#include "radiosity/solve/half.hpp"
+#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
 

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity {
 

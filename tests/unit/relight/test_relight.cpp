@@ -16,8 +16,8 @@
 #include "radiosity/relight/basis.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
-#include "radiosity/solve/exec.hpp"
-#include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/cpu/linalg.hpp"
 #include "radiosity/solve/solve.hpp"
 
 using namespace radiosity;

@@ -13,7 +13,7 @@
 
 #include "common/errors.hpp"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/methods.hpp"
+#include "radiosity/solve/methods/methods.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/hybrid_host.hpp"
+#include "radiosity/solve/gpu/hybrid_host.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/divergence.hpp"
+#include "radiosity/solve/methods/divergence.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "reference.hpp"
 

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
-#include "radiosity/solve/half.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
+#include "radiosity/solve/storage/half.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "reference.hpp"
 

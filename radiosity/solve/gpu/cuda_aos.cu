@@ -1,9 +1,9 @@
 // Backend `cuda`: the report's CUDA column of Table 4.3 (§3.8.1, GPU off-loading): F, ρ, E and the vectors live on
 // the GPU as {r, g, b} records, every operation is an own kernel (aos_kernels.cuh), and only the three sums of a
 // reduction come back to the host.
-#include "radiosity/solve/aos_kernels.cuh"
+#include "radiosity/solve/gpu/aos_kernels.cuh"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_kernels.cuh"
+#include "radiosity/solve/gpu/device_kernels.cuh"
 
 namespace radiosity {
 namespace {

@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/csr_kernels.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/stored_values.hpp"
+#include "radiosity/solve/storage/stored_values.hpp"
 
 namespace radiosity {
 

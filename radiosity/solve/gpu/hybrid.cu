@@ -18,10 +18,10 @@
 #include <cstring>
 
 #include "common/timer.hpp"
-#include "radiosity/solve/aos_kernels.cuh"
+#include "radiosity/solve/gpu/aos_kernels.cuh"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_kernels.cuh"
-#include "radiosity/solve/hybrid_host.hpp"
+#include "radiosity/solve/gpu/device_kernels.cuh"
+#include "radiosity/solve/gpu/hybrid_host.hpp"
 
 namespace radiosity {
 namespace {

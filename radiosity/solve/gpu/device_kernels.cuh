@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/device_common.cuh"
+#include "radiosity/solve/gpu/device_common.cuh"
 #include "radiosity/solve/kernels.hpp"
 #include "radiosity/solve/solve.hpp"
 

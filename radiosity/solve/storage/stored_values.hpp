@@ -9,7 +9,7 @@
 #include <immintrin.h>
 #endif
 
-#include "radiosity/solve/half.hpp"
+#include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
 

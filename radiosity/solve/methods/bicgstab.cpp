@@ -3,7 +3,7 @@
 #include <string>
 #include <utility>
 
-#include "radiosity/solve/methods.hpp"
+#include "radiosity/solve/methods/methods.hpp"
 
 namespace radiosity {
 namespace {

@@ -3,8 +3,8 @@
 #include <string>
 #include <utility>
 
-#include "radiosity/solve/divergence.hpp"
-#include "radiosity/solve/methods.hpp"
+#include "radiosity/solve/methods/divergence.hpp"
+#include "radiosity/solve/methods/methods.hpp"
 
 namespace radiosity {
 

@@ -1,7 +1,7 @@
 // Backend `serial`: the shared kernels on one thread, no OpenMP runtime involved.
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/cpu_kernels.hpp"
-#include "radiosity/solve/exec.hpp"
+#include "radiosity/solve/cpu/cpu_kernels.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
 
 namespace radiosity {
 

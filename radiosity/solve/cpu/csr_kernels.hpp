@@ -18,9 +18,9 @@
 #include <type_traits>
 #include <vector>
 
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/stored_values.hpp"
+#include "radiosity/solve/storage/stored_values.hpp"
 
 namespace radiosity {
 

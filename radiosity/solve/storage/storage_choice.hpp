@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/solve.hpp"
 
 namespace radiosity {

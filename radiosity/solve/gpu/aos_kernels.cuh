@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/device_common.cuh"
+#include "radiosity/solve/gpu/device_common.cuh"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity::gpu {

@@ -1,8 +1,8 @@
 // Backend `openmp`: the shared kernels with OpenMP threads over rows, static blocks aligned to cache lines
 // (report §3.8.2: only the linear algebra is threaded; F is shared, never copied).
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/cpu_kernels.hpp"
-#include "radiosity/solve/exec.hpp"
+#include "radiosity/solve/cpu/cpu_kernels.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
 
 namespace radiosity {
 

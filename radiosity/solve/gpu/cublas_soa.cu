@@ -16,7 +16,7 @@
 #include <type_traits>
 
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/device_kernels.cuh"
+#include "radiosity/solve/gpu/device_kernels.cuh"
 
 namespace radiosity {
 namespace {

@@ -12,7 +12,7 @@
 
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity {
 

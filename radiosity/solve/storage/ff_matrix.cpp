@@ -1,11 +1,11 @@
-#include "radiosity/solve/ff_matrix.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/half.hpp"
+#include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
 namespace {

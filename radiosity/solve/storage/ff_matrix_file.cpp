@@ -1,4 +1,4 @@
-#include "radiosity/solve/ff_matrix_file.hpp"
+#include "radiosity/solve/storage/ff_matrix_file.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include "common/files.hpp"
 #include "common/one_line.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
-#include "radiosity/solve/half.hpp"
+#include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
 namespace {

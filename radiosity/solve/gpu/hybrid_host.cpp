@@ -1,12 +1,12 @@
-#include "radiosity/solve/hybrid_host.hpp"
+#include "radiosity/solve/gpu/hybrid_host.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
-#include "radiosity/solve/exec.hpp"
+#include "radiosity/solve/cpu/exec.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/linalg.hpp"
+#include "radiosity/solve/cpu/linalg.hpp"
 
 namespace radiosity {
 

@@ -11,7 +11,7 @@
 
 #include "common/timer.hpp"
 #include "radiosity/solve/backends.hpp"
-#include "radiosity/solve/divergence.hpp"
+#include "radiosity/solve/methods/divergence.hpp"
 
 namespace radiosity {
 namespace {
