@@ -142,7 +142,7 @@ $(BIN)/poisson: $(call obj,poisson/main.cpp) $(call mods,common poisson)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/stream: $(call obj,common/stream.cpp) $(call mods,common) $(if $(HAVE_CUDA),$(call obj,common/stream_gpu.cu))
+$(BIN)/stream: $(call obj,bench/stream.cpp) $(call mods,common) $(if $(HAVE_CUDA),$(call obj,bench/stream_gpu.cu))
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
@@ -228,10 +228,10 @@ report: plots
 scenes:
 	radiosity/scenes/rrv/fetch
 
-# Re-runs a sample of recorded cases here and compares outcome and time with the records.
+# Re-runs a sample of recorded cases here and compares outcome and time with the records (slurm/audit).
 AUDIT_SAMPLE ?= 5
 audit:
-	$(VENV)/bin/python -m analysis audit $(PRESET) --sample $(AUDIT_SAMPLE) $(MACHINE_ARG)
+	$(VENV)/bin/python slurm/audit $(PRESET) --sample $(AUDIT_SAMPLE) $(MACHINE_ARG)
 
 clean:
 	rm -rf $(BUILD) $(BIN)

@@ -1,26 +1,24 @@
-"""python -m analysis tables|report|audit PRESET [--machine LABEL] [--sample N]
+"""python -m analysis tables|report PRESET [--machine LABEL]
 
   tables  every table (results/<machine>/tables/*.csv, *.md) and plot (results/<machine>/plots/*.png) from the
           machine's records of PRESET, beside the report's numbers and the reference machine's
   report  the reproduced report, report/<machine>/REPORT-<preset>.md (run `tables` first; make report does), and
           report/MACHINES.md, every machine with records side by side
-  audit   re-runs a sample of the machine's recorded cases here and compares outcome and time with the records
 
 The machine is --machine, else $MACHINE, else this machine's own label (common/machine_label.py)."""
 import argparse
 import sys
 
-from analysis import accuracy, audit, figure42, machines, mpi_radiosity, radiosity_tables, records, relight, report, \
+from analysis import accuracy, figure42, machines, mpi_radiosity, radiosity_tables, records, relight, report, \
     table41, table42_audit
 
 
 def main():
     ap = argparse.ArgumentParser(prog="python -m analysis", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("command", choices=["tables", "report", "audit"])
+    ap.add_argument("command", choices=["tables", "report"])
     ap.add_argument("preset", nargs="?", default="quick")
     ap.add_argument("--machine", help="whose records (default: $MACHINE, else this machine)")
-    ap.add_argument("--sample", type=int, default=5, help="audit: how many recorded cases to re-run")
     a = ap.parse_args()
     try:
         if a.machine:
@@ -46,11 +44,9 @@ def main():
                   f"out: {', '.join(files)}", file=sys.stderr)
             return 1
         return 0
-    if a.command == "report":
-        print(f"analysis: wrote {report.write(a.preset)}")
-        print(f"analysis: wrote {machines.write(a.preset)}")
-        return 0
-    return audit.run(a.preset, a.sample)
+    print(f"analysis: wrote {report.write(a.preset)}")
+    print(f"analysis: wrote {machines.write(a.preset)}")
+    return 0
 
 
 if __name__ == "__main__":

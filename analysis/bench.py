@@ -263,6 +263,12 @@ def mg_rows(preset, host):
     return out, targets
 
 
+def markdown(rows, floatfmt):
+    """rows (dicts) as a Markdown table, empty cells where a row has no value (not "nan")."""
+    df = pd.DataFrame(rows)
+    return df.astype(object).where(df.notna(), None).to_markdown(index=False, floatfmt=floatfmt, missingval="")
+
+
 def write(preset):
     made = rows(preset)
     if made is None:
@@ -270,9 +276,7 @@ def write(preset):
     out, targets, host, threads, cpu = made
     mg_out, mg_targets = mg_rows(preset, host)
     sp_out, sp_targets = sparse_rows(preset, host, _on(load("bench-stream", preset), host))
-    df = pd.DataFrame(out)
-    df = df.astype(object).where(df.notna(), None)  # empty cells, not "nan"
-    table = df.to_markdown(index=False, floatfmt=".3g", missingval="")
+    table = markdown(out, ".3g")
     head = (f"CPU timings (host wall clock) on {host} ({cpu}), {threads} threads, OMP_PROC_BIND=close, medians over "
             f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "
             f"triad next to it: the STREAM triad bandwidth measured just before and just after the case (median); "
@@ -280,23 +284,19 @@ def write(preset):
             f"same problem (peer/ours, > 1: ours is faster).")
     text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
     if mg_out:
-        mg = pd.DataFrame(mg_out)
-        mg = mg.astype(object).where(mg.notna(), None)
         text += (f"\n#### Multigrid-preconditioned CG against PETSc and hypre ({preset})\n\nTime to solution: the "
                  f"solve alone (ours: the CG iterations with their V-cycles; PETSc: ksp.solve after ksp.setUp, whose "
                  f"AMG setup is in setup with the assembly); ours on {threads} OpenMP threads, PETSc on as many MPI "
                  f"ranks; medians over the repeats, which slurm/bench runs in rounds so ours and the peers "
                  f"alternate. time / ours: peer over ours (> 1: ours is faster); for plain CG per iteration.\n\n"
-                 + mg.to_markdown(index=False, floatfmt=".4g", missingval="") + "\n\n"
+                 + markdown(mg_out, ".4g") + "\n\n"
                  + "".join(f"- {t}\n" for t in mg_targets))
     if sp_out:
-        sp = pd.DataFrame(sp_out)
-        sp = sp.astype(object).where(sp.notna(), None)
         text += (f"\n#### Sparse form factors: a Jacobi step by storage ({preset})\n\nopenmp, float, AOS, "
                  f"{threads} threads, 32 steps; slurm/bench runs the storages in rounds, so they alternate in the same "
                  f"minutes. MB of F per step: what the product reads (perf.matrix_bytes); time / its limit: the time "
                  f"per step over those bytes at the read-only sweep measured next to each repeat (median over the "
-                 f"repeats).\n\n" + sp.to_markdown(index=False, floatfmt=".3g", missingval="") + "\n\n"
+                 f"repeats).\n\n" + markdown(sp_out, ".3g") + "\n\n"
                  + "".join(f"- {t}\n" for t in sp_targets))
     tables_dir().mkdir(parents=True, exist_ok=True)
     path = tables_dir() / f"bench_{preset}.md"

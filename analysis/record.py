@@ -74,6 +74,19 @@ def provenance(libraries=None):
     return p
 
 
+# The exit statuses of common/errors.hpp that end a run with its record (result.exit_status): 0 an answer, 3 a
+# numerical failure, 4 not converged within --max-iter, 5 disagreed with its float64 check.
+EXIT_OK, EXIT_NUMERICAL, EXIT_NOT_CONVERGED, EXIT_DISAGREED = 0, 3, 4, 5
+
+
+def set_outcome(rec, status, reason=None):
+    """result.exit_status and result.exit_reason (None for 0, else the one line on stderr), as common/record.cpp's
+    set_outcome; returns the status, the run's exit status."""
+    rec["result"]["exit_status"] = status
+    rec["result"]["exit_reason"] = None if status == EXIT_OK else reason
+    return status
+
+
 def make(app, libraries=None):
     """A new record with schema, app and provenance filled in."""
     return {"schema": SCHEMA, "app": app, "provenance": provenance(libraries)}

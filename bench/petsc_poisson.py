@@ -14,7 +14,7 @@ algebraic multigrid with its defaults). Times: setup (assembly), pc_setup (ksp.s
 
 Debian's petsc4py (python3-petsc4py, `make deps`) runs only under /usr/bin/python3 and needs
 PETSC_DIR=/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real when Python starts (it restarts itself with it). Bad arguments: exit 2 with
-one line on stderr. The record (rank 0 only) follows analysis/record.py's schema, app "peer"."""
+one line on stderr; stopped by --max-iter: exit 4, broken down: exit 3, each with its record (common/errors.hpp). The record (rank 0 only) follows analysis/record.py's schema, app "peer"."""
 import argparse
 import os
 import sys
@@ -28,7 +28,7 @@ if "PETSC_DIR" not in os.environ:
     os.execv(sys.executable, [sys.executable, *sys.argv])
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis import record  # noqa: E402  (standard library only, so /usr/bin/python3 can import it)
-from analysis.peers import positive  # noqa: E402  (NumPy is imported inside its functions only)
+from bench.peers import positive  # noqa: E402  (NumPy is imported inside its functions only)
 
 PCS = {"none": "none", "hypre": "hypre", "gamg": "gamg"}
 NAMES = {"none": "PETSc CG", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
@@ -130,9 +130,14 @@ def main(argv):
     true_rel = r.norm() / bn if bn > 0 else 0.0
     x.axpy(-1.0, u)
     err = x.norm(PETSc.NormType.INFINITY)
-    if rank != 0:
-        return 0
     status = "converged" if reason > 0 else "max_iter" if reason == -3 else "breakdown"
+    # every rank ends with the run's exit status (common/errors.hpp); rank 0 alone writes the record
+    exit_status = record.EXIT_OK if reason > 0 else record.EXIT_NOT_CONVERGED if reason == -3 else \
+        record.EXIT_NUMERICAL
+    why = (f"true relative residual {true_rel:.3e} after {its} iterations (--max-iter {max_iter}), above --tol "
+           f"{a.tol:.1e}") if reason == -3 else f"KSPCG did not converge (KSPConvergedReason {int(reason)})"
+    if rank != 0:
+        return exit_status
     libs = {"petsc": ".".join(map(str, PETSc.Sys.getVersion())), "numpy": np.__version__}
     rec = record.make("peer", libs)
     rec["params"] = {"peer": f"petsc-cg-{a.pc}", "n": n, "backend": "petsc", "precond": a.pc, "precision": "double",
@@ -149,8 +154,11 @@ def main(argv):
               f"relative residual {true_rel:.3e}, ||u - u_h||_inf = {err:.4e}\n  time: setup {setup_s:.3f} s, "
               f"pc setup {pc_setup_s:.3f} s, solve {solve_s:.3f} s ({1e3 * rec['times_s']['per_iteration']:.4g} "
               f"ms/iteration)")
+    record.set_outcome(rec, exit_status, why)
     record.emit(rec, a)
-    return 0
+    if exit_status != record.EXIT_OK:
+        print(f"petsc_poisson: {why}", file=sys.stderr)
+    return exit_status
 
 
 if __name__ == "__main__":

@@ -16,16 +16,11 @@ __global__ void axpby_kernel(long len, T a, const T* __restrict__ x, T b, T* __r
 template <class T>
 class Cublas1 final : public CublasBase<T> {
   using B = CublasBase<T>;
-  using B::blas_;
   using B::dot;
 
  public:
   explicit Cublas1(const Config& cfg) : B(cfg, "cublas1") {}
 
-  double calc_w() override {
-    B::stencil(B::p_.get(), B::w_.get());
-    return dot(B::p_.get(), B::w_.get());
-  }
   double calc_ur(double alpha) override {
     axpby(alpha, B::p_.get(), 1.0, B::x_.get());
     axpby(-alpha, B::w_.get(), 1.0, B::r_.get());

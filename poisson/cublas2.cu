@@ -15,10 +15,6 @@ class Cublas2 final : public CublasBase<T> {
  public:
   explicit Cublas2(const Config& cfg) : B(cfg, "cublas2") {}
 
-  double calc_w() override {
-    B::stencil(B::p_.get(), B::w_.get());
-    return dot(B::p_.get(), B::w_.get());
-  }
   double calc_ur(double alpha) override {
     CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), alpha, B::p_.get(), B::x_.get()));
     CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), -alpha, B::w_.get(), B::r_.get()));

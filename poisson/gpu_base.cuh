@@ -146,6 +146,11 @@ template <class T>
 class CublasBase : public GpuBase<T> {
  public:
   CublasBase(const Config& cfg, const std::string& name) : GpuBase<T>(cfg, name) {}
+  // w = Ap with the own stencil kernel, then p·w by cuBLAS: the same in cuBLAS 1 and cuBLAS 2.
+  double calc_w() override {
+    this->stencil(this->p_.get(), this->w_.get());
+    return dot(this->p_.get(), this->w_.get());
+  }
   std::map<std::string, std::string> info() const override {
     auto i = GpuBase<T>::info();
     i["dot"] = sizeof(T) == 8 ? "cublasDdot" : "cublasSdot";

@@ -106,7 +106,7 @@ def bench(preset, p):
     t = p["cores"]
     room3 = "{RRV_SCENES}/room3.xml --allow-reflectivity-ge-1"
     ff = "{FF_DIR}/bench-room3.ff"
-    peer = ".venv/bin/python -m analysis.peers"
+    peer = ".venv/bin/python -m bench.peers"
     e = {}
     e["bench-stream"] = ("Bench: memory bandwidth (STREAM triad, read-only sweep), run by slurm/bench before every "
                          "other bench case", None, [f"bin/stream --threads {t}"])

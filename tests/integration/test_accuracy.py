@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-import ff_layout
+from bench import ff_file
 from conftest import BIN, ROOT, run
 
 BOX = (ROOT / "radiosity" / "scenes" / "closed_box.xml").read_text()
@@ -49,8 +49,8 @@ def scene_with_ff(tmp_path, xml, edit=None, divide="0.05", hemicube="32"):
                   ff, "--quiet", "--json")
     assert p.returncode == 0, p.stderr
     if edit:
-        header, values = ff_layout.read(ff)
-        ff_layout.rewrite(ff, header, edit(values))
+        header, values = ff_file.read(ff)
+        ff_file.rewrite(ff, header, edit(values))
     return scene, ff, json.loads(p.stdout)
 
 

@@ -10,7 +10,7 @@ import pytest
 from conftest import BIN, ROOT, run
 
 SCENES = ROOT / "radiosity" / "scenes"
-PEERS = [sys.executable, "-m", "analysis.peers"]
+PEERS = [sys.executable, "-m", "bench.peers"]
 
 
 def peer(*args, env=None):
@@ -46,9 +46,13 @@ def test_scipy_cg_takes_our_iterations_on_our_problem(tmp_path, n, cap):
     assert p.returncode == (4 if cap else 0), p.stderr
     ours = json.loads(mine.read_text())
     path = tmp_path / "p.jsonl"
-    p, rec = peer("scipy-cg", "--n", str(n), "--threads", "1", "--json", "--quiet", "--record", str(path), *extra)
-    assert p.returncode == 0, p.stderr
-    assert rec == json.loads(path.read_text())
+    p = run([*PEERS, "scipy-cg", "--n", n, "--threads", 1, "--quiet", "--record", path, *extra], cwd=ROOT)
+    # the peer stopped by --max-iter is no answer as ours is: exit 4, the record written with its status and reason
+    assert p.returncode == (4 if cap else 0), p.stderr
+    rec = json.loads(path.read_text())
+    assert rec["result"]["exit_status"] == ours["result"]["exit_status"] == (4 if cap else 0)
+    assert (rec["result"]["exit_reason"] is None) == (cap is None)
+    assert cap is None or f"(--max-iter {cap})" in p.stderr and len(p.stderr.strip().splitlines()) == 1
     assert rec["schema"] == "hpcgi-record/1" and rec["app"] == "peer" and rec["params"]["peer"] == "scipy-cg"
     assert rec["provenance"]["libraries"]["scipy"] and rec["provenance"]["git_commit"]
     assert rec["result"]["iterations"] == ours["result"]["iterations"]
@@ -127,7 +131,7 @@ def test_bench_table_from_records(tmp_path):
                  res / "bench-cg/quick.jsonl", *args])
         assert p.returncode == 0, p.stderr
     p, _ = peer("scipy-cg", "--n", "2048", "--max-iter", "3", "--quiet", "--record", str(res / "bench-cg/quick.jsonl"))
-    assert p.returncode == 0, p.stderr
+    assert p.returncode == 4, p.stderr
     p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 0, p.stderr

@@ -205,8 +205,7 @@ def test_audit_makes_the_form_factors_a_case_reads(tmp_path):
     assert run([ROOT / "slurm" / "run-case", "table42", "0"], env=e).returncode == 0
     for f in (tmp_path / "ff").glob("*.ff"):
         f.unlink()
-    p = run([ROOT / ".venv" / "bin" / "python", "-m", "analysis", "audit", "ci", "--sample", "100"], env=e,
-            cwd=ROOT)
+    p = run([ROOT / "slurm" / "audit", "ci", "--sample", "100"], env=e, cwd=ROOT)
     assert p.returncode == 0, p.stdout + p.stderr
     assert "audit: making" in p.stderr and "ci-scene1.ff" in p.stderr, p.stderr
     assert (tmp_path / "ff" / "ci-scene1.ff").exists()

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-import ff_layout
+from bench import ff_file
 from conftest import BIN, MPI_ENV, ROOT, have_mpi, run
 
 BOX = (ROOT / "radiosity" / "scenes" / "closed_box.xml").read_text()
@@ -164,7 +164,7 @@ def test_two_formfactors_on_one_output_both_succeed_and_leave_one_whole_file(box
              "--hemicube", str(r), "--quiet"] for r in (16, 18)]
     procs = [subprocess.Popen([str(c) for c in cmd], stderr=subprocess.PIPE, text=True) for cmd in cmds]
     assert [p.wait(timeout=120) for p in procs] == [0, 0], [p.stderr.read() for p in procs]
-    header, _ = ff_layout.read(box / "same.ff")
+    header, _ = ff_file.read(box / "same.ff")
     assert header["resolution"] in (16, 18)  # the data of one run that reported success, whole
     p = radiosity("solve", box / "box.xml", "--divide", "0.05", "--ff", box / "same.ff", "--quiet")
     assert p.returncode == 0, p.stderr
@@ -182,13 +182,13 @@ def test_sigterm_while_computing_form_factors_leaves_nothing(box):
 
 
 def test_form_factor_values_out_of_range_are_refused(box):
-    header, values = ff_layout.read(box / "box.ff")
+    header, values = ff_file.read(box / "box.ff")
     n = header["n"]
     for edit, why in ((lambda v: v.__setitem__(1, -5.0), "lies in [0, 1]"),
                       (lambda v: v.__setitem__(0, 0.9), "to itself must be 0")):
         v = list(values)
         edit(v)
-        ff_layout.rewrite(box / "bad.ff", header, v)
+        ff_file.rewrite(box / "bad.ff", header, v)
         refused(radiosity("solve", box / "box.xml", "--ff", box / "bad.ff", "--quiet"), why, "F[0]")
     assert n == 12
     p = radiosity("formfactors", box / "box.xml", "--divide", "0.1", "--hemicube", "2", "-o", box / "coarse.ff")

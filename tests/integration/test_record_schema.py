@@ -45,7 +45,7 @@ def test_every_producer_validates(ff, tmp_path):
         "radiosity solve": records_of(BIN / "radiosity", "solve", SCENE, "--ff", ff, "--tol", "1e-4"),
         "radiosity solve --steps": records_of(BIN / "radiosity", "solve", SCENE, "--ff", ff, "--steps", "4",
                                               "--method", "gauss-seidel"),
-        "peer scipy-cg": records_of(sys.executable, "-m", "analysis.peers", "scipy-cg", "--n", "16", "--threads", "1"),
+        "peer scipy-cg": records_of(sys.executable, "-m", "bench.peers", "scipy-cg", "--n", "16", "--threads", "1"),
     }
     for what, recs in produced.items():
         assert len(recs) == 1, what

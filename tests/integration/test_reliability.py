@@ -3,14 +3,14 @@ with its exit status (2 bad input, 3 numerical failure, 4 not converged, 5 disag
 (for a failed solve) and no half-made output. The README's table "Reliability: bad input and faults" is made
 from these cases.
 
-The form-factor files that make a solve go wrong are made by tests/ff_layout.py from a real file of the scene:
+The form-factor files that make a solve go wrong are made by tests/ff_file.py from a real file of the scene:
 values changed, checksum recomputed, so the reader accepts them and the solver's guards must catch them."""
 import json
 import math
 
 import pytest
 
-import ff_layout
+from bench import ff_file
 from conftest import BIN, ROOT, run
 
 # Two triangles facing each other (z = 0 up, z = 1 down), area 0.5 each: the smallest scene with a free F.
@@ -34,8 +34,8 @@ def scene_with_ff(tmp_path, xml, edit=None):
     p = radiosity("formfactors", scene, "--allow-reflectivity-ge-1", "--hemicube", "32", "-o", ff, "--quiet")
     assert p.returncode == 0, p.stderr
     if edit:
-        header, values = ff_layout.read(ff)
-        ff_layout.rewrite(ff, header, edit(values))
+        header, values = ff_file.read(ff)
+        ff_file.rewrite(ff, header, edit(values))
     return scene, ff
 
 

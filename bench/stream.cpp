@@ -7,7 +7,7 @@
 //                        thread reads its block as four streams, see read_block)
 // Each sweep runs --trials times; the record keeps the best (STREAM's figure) and the median trial. The arrays are
 // first touched by the same static schedule as the sweeps, and the results are checked after the timing.
-// --device gpu runs the same two sweeps in the GPU's memory (common/stream_gpu.cu), timed by CUDA events.
+// --device gpu runs the same two sweeps in the GPU's memory (bench/stream_gpu.cu), timed by CUDA events.
 #include <omp.h>
 
 #include <algorithm>
@@ -24,7 +24,7 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
-#include "common/stream_gpu.hpp"
+#include "bench/stream_gpu.hpp"
 #include "common/timer.hpp"
 
 namespace {

@@ -1,10 +1,10 @@
-// bin/stream --device gpu: STREAM's triad and a read-only sweep in the GPU's memory (common/stream_gpu.hpp). The
+// bin/stream --device gpu: STREAM's triad and a read-only sweep in the GPU's memory (bench/stream_gpu.hpp). The
 // limit every GPU number of the project is judged by: a kernel that streams F or the CG vectors cannot beat it.
 #include <algorithm>
 #include <vector>
 
 #include "common/cuda_check.cuh"
-#include "common/stream_gpu.hpp"
+#include "bench/stream_gpu.hpp"
 
 namespace hpcgi {
 namespace {

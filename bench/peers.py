@@ -1,4 +1,4 @@
-"""python -m analysis.peers scipy-cg|numpy-jacobi ...: what a user would reach for instead of our solvers, on the
+"""python -m bench.peers scipy-cg|numpy-jacobi ...: what a user would reach for instead of our solvers, on the
 same problems, timed and recorded like them (schema hpcgi-record/1, --record/--json/--quiet as bin/*), for
 `make bench`.
 
@@ -9,17 +9,19 @@ same problems, timed and recorded like them (schema hpcgi-record/1, --record/--j
                 columns), --way gemv: three F @ b (three sgemv, three passes over F)
 
 Threads: --threads sets OPENBLAS_NUM_THREADS and OMP_NUM_THREADS before NumPy loads. SciPy's sparse product is
-single-threaded whatever they say; that is what a user gets."""
+single-threaded whatever they say; that is what a user gets.
+
+Exit status as bin/poisson's and bin/radiosity's (common/errors.hpp), the record written for 3, 4 and 5: 0 an
+answer, 2 bad arguments or input, 3 scipy-cg broke down, 4 scipy-cg stopped by --max-iter, 5 numpy-jacobi
+disagreed with our B."""
 import argparse
 import os
-import struct
 import sys
 import time
 import xml.etree.ElementTree as ET
 
 from analysis import record
-
-FF_HEADER = struct.Struct("<8sIIQ8s8sQ8sdQ")  # radiosity/formfactor/ff_file.hpp: 72 bytes
+from bench import ff_file
 
 
 class UsageError(Exception):
@@ -44,7 +46,7 @@ def positive(kind):
 
 
 def parse(argv):
-    ap = Parser(prog="python -m analysis.peers", description=__doc__,
+    ap = Parser(prog="python -m bench.peers", description=__doc__,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="peer", required=True, parser_class=Parser)
     cg = sub.add_parser("scipy-cg", help="scipy.sparse.linalg.cg on bin/poisson's problem")
@@ -118,6 +120,12 @@ def scipy_cg(a):
                       "check": check_s}
     rec["perf"] = {"timer": "host wall clock (time.perf_counter)"}
     rec["backend_info"] = {"threads": str(a.threads), "note": "CSR product single-threaded; dots and axpys by NumPy"}
+    if info > 0:
+        record.set_outcome(rec, record.EXIT_NOT_CONVERGED, f"true relative residual {true_rel:.3e} after {it} "
+                           f"iterations (--max-iter {max_iter}), above --tol {a.tol:.1e}")
+    else:
+        record.set_outcome(rec, record.EXIT_OK if info == 0 else record.EXIT_NUMERICAL,
+                           f"scipy.sparse.linalg.cg broke down (info {info})")
     if not a.quiet:
         print(f"scipy-cg: N={n} threads={a.threads}\n  status {status} after {it} iterations: true relative "
               f"residual {true_rel:.3e}, ||u - u_h||_inf = {err:.4e}\n  time: setup {setup_s:.3f} s, solve "
@@ -125,64 +133,36 @@ def scipy_cg(a):
     return rec
 
 
-def mesh_hash(vertices):
-    """radiosity/mesh.hpp's mesh_hash: FNV-1a over the patch count and the bytes of every vertex coordinate."""
-    h = 1469598103934665603
-    data = struct.pack("<Q", len(vertices) // 9) + struct.pack(f"<{len(vertices)}d", *vertices)
-    for byte in data:
-        h = ((h ^ byte) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
-    return h
-
-
 def read_solved(path):
-    """E, rho, B (n × 3) and the vertices of the patches of an RRV file written by bin/radiosity solve --output:
-    one triangle per patch in patch order (grouped by entity, which keep their patches in order)."""
+    """E, rho, B (n × 3) and the triangles (three vertices each) of the patches of an RRV file written by
+    bin/radiosity solve --output: one triangle per patch in patch order (grouped by entity, which keep their patches
+    in order)."""
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError) as e:
         raise UsageError(f"{path}: cannot read the solved scene ({e})") from None
-    E, rho, B, verts = [], [], [], []
+    E, rho, B, triangles = [], [], [], []
     colour = lambda t, k: [float(v) for v in t.get(k, "0,0,0").split(",")]
     for t in root.iter("triangle"):
         E.append(colour(t, "emission"))
         rho.append(colour(t, "reflectivity"))
         B.append(colour(t, "radiosity"))
-        for v in t.iter("vertex"):
-            verts += [float(v.get("x")), float(v.get("y")), float(v.get("z"))]
-    if not E or len(verts) != 9 * len(E):
+        triangles.append([(float(v.get("x")), float(v.get("y")), float(v.get("z"))) for v in t.iter("vertex")])
+    if not E or any(len(t) != 3 for t in triangles):
         raise UsageError(f"{path}: not a scene written by bin/radiosity solve --output (one triangle per patch)")
-    return E, rho, B, verts
-
-
-def read_ff(path, n, want_hash):
-    """The n × n float32 form factors of a file from bin/radiosity formfactors, after checking its header."""
-    import numpy as np
-    try:
-        with open(path, "rb") as f:
-            head = f.read(FF_HEADER.size)
-    except OSError as e:
-        raise UsageError(f"{path}: {e.strerror}") from None
-    if len(head) < FF_HEADER.size:
-        raise UsageError(f"{path}: not a form-factor file (too short)")
-    magic, version, _, count, storage, precision, hash_, _, _, nbytes = FF_HEADER.unpack(head)
-    if magic != b"HPCGIFF\0" or version != 1 or storage.rstrip(b"\0") != b"dense" \
-            or precision.rstrip(b"\0") != b"float32":
-        raise UsageError(f"{path}: not a version 1 dense float32 form-factor file")
-    if count != n or hash_ != want_hash:
-        raise UsageError(f"{path}: form factors of another mesh ({count} patches, hash {hash_:#018x}; the solved "
-                         f"scene has {n}, hash {want_hash:#018x})")
-    if nbytes != 4 * n * n or os.path.getsize(path) < FF_HEADER.size + nbytes:
-        raise UsageError(f"{path}: truncated form-factor file")
-    return np.fromfile(path, dtype="<f4", count=n * n, offset=FF_HEADER.size).reshape(n, n)
+    return E, rho, B, triangles
 
 
 def numpy_jacobi(a):
     import numpy as np
 
     t = time.perf_counter()
-    E, rho, B_ours, verts = read_solved(a.solved)
+    E, rho, B_ours, triangles = read_solved(a.solved)
     n = len(E)
-    F = read_ff(a.ff, n, mesh_hash(verts))
+    try:
+        F = ff_file.read_dense(a.ff, n, ff_file.mesh_hash(triangles))
+    except ff_file.FileError as e:
+        raise UsageError(str(e)) from None
     load_s = time.perf_counter() - t
     E = np.asarray(E, dtype=np.float32)
     rho = np.asarray(rho, dtype=np.float32)
@@ -218,6 +198,9 @@ def numpy_jacobi(a):
     rec["perf"] = {"matrix_bytes": matrix_bytes, "matrix_passes": passes * a.steps,
                    "bandwidth_GBps": passes * matrix_bytes / per_step / 1e9, "timer": "host wall clock"}
     rec["backend_info"] = {"threads": str(a.threads)}
+    agreed = rec["verify"]["agreed"]
+    record.set_outcome(rec, record.EXIT_OK if agreed else record.EXIT_DISAGREED,
+                       f"disagreed with its float64 check: the result differs from ours by {diff:.2e} (bound 1e-4)")
     if not a.quiet:
         print(f"numpy-jacobi ({a.way}): {n} patches, {a.steps} steps, {a.threads} threads\n  agrees with our B to "
               f"{diff:.2e} (bound 1e-4)\n  time: load {load_s:.3f} s, solve {solve_s:.4f} s "
@@ -234,11 +217,10 @@ def main(argv=None):
         print(f"peers: {e}", file=sys.stderr)
         return 2
     record.emit(rec, a)
-    if rec.get("verify", {}).get("agreed") is False:  # exit status 5 as bin/radiosity's (common/errors.hpp)
-        print(f"peers: disagreed with its float64 check: the result differs from ours by "
-              f"{rec['verify']['max_rel_diff']:.2e}", file=sys.stderr)
-        return 5
-    return 0
+    status = rec["result"]["exit_status"]  # 4 not converged, 5 disagreed: no answer, recorded (common/errors.hpp)
+    if status != record.EXIT_OK:
+        print(f"peers: {rec['result']['exit_reason']}", file=sys.stderr)
+    return status
 
 
 if __name__ == "__main__":
