@@ -42,6 +42,16 @@ void read_file_info(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   L.sparse_file = L.file_info.version != 1;
 }
 
+// What a process holds of a solve, in words: the file's values, their 16-bit copy, the vectors, the picture.
+std::string held_in_words(const SolvePlan& p, const LoadedSolve& L, double copy_bytes, double picture_bytes) {
+  const std::string values = L.sparse_file ? L.file_info.storage + " " + L.file_info.precision : "dense float32";
+  const std::string rows =
+      p.dist ? "of rank " + std::to_string(p.rank) + "'s " + std::to_string(L.block.rows()) + " rows " : "";
+  return "the form-factor file's " + values + " values " + rows + gib(L.file_bytes) +
+         (copy_bytes > 0 ? ", their 16-bit copy " + gib(copy_bytes) : "") + ", vectors " + gib(vector_bytes(L.n)) +
+         (picture_bytes > 0 ? ", the picture " + gib(picture_bytes) : "");
+}
+
 // Memory: the file's dense float32 values (always read whole; on MPI ranks each its block of rows), or a sparse
 // file's matrix, a 16-bit dense copy, the vectors; a CSR copy is checked once its size is known (the kept values
 // are counted after loading). --max-memory-per-rank is checked first, the same on every rank (the split depends
@@ -71,16 +81,10 @@ void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   require_memory_per_rank(p.limit, needs, p.ranks, "a solve of " + L.patches, "bin/radiosity solve ... --backend mpi");
   if (p.dist) L.rank_needs = needs(p.ranks);
   L.file_bytes = sparse ? sparse_bytes : 4.0 * double(L.block.rows()) * double(n);
-  const double copy_bytes = dense16 ? 2 * L.n2 : 0;
+  const double copy_bytes = dense16 ? 2 * L.n2 : 0, picture = p.root ? picture_bytes : 0;
   hpcgi::comm::agreed([&] {
-    hpcgi::require_host_memory(
-        "a solve of " + L.patches + " (the form-factor file's " +
-            (sparse ? L.file_info.storage + " " + L.file_info.precision : std::string("dense float32")) + " values " +
-            (p.dist ? "of rank " + std::to_string(p.rank) + "'s " + std::to_string(L.block.rows()) + " rows "
-                    : std::string()) +
-            gib(L.file_bytes) + (dense16 ? ", their 16-bit copy " + gib(copy_bytes) : "") + ", vectors " +
-            gib(vector_bytes(n)) + (p.root && picture_bytes > 0 ? ", the picture " + gib(picture_bytes) : "") + ")",
-        L.file_bytes + copy_bytes + vector_bytes(n) + (p.root ? picture_bytes : 0));
+    hpcgi::require_host_memory("a solve of " + L.patches + " (" + held_in_words(p, L, copy_bytes, picture) + ")",
+                               L.file_bytes + copy_bytes + vector_bytes(n) + picture);
   });
 }
 
