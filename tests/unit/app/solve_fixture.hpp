@@ -4,9 +4,11 @@
 #pragma once
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 
 #include "radiosity/app/commands.hpp"
+#include "radiosity/app/solve_run.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
@@ -26,6 +28,20 @@ class SolvePhases : public ::testing::Test {
     radiosity::save_form_factors(args.ff, m, radiosity::compute_form_factors(m, hp));
   }
   std::string file(const std::string& name) const { return (tmp.path() / name).string(); }
+
+  // The phases up to the solve (plan, load, solve) on args.
+  struct Solved {
+    radiosity::app::SolvePlan p;
+    radiosity::app::LoadedSolve L;
+    radiosity::app::SolveRun run;
+  };
+  std::unique_ptr<Solved> solved() const {
+    auto s = std::make_unique<Solved>();
+    s->p = radiosity::app::plan_solve(args);
+    radiosity::app::load_solve(args, s->p, s->L);
+    s->run = radiosity::app::run_solver(args, s->p, s->L);
+    return s;
+  }
 
   scene_test::TempDir tmp;
   radiosity::app::SolveArgs args;

@@ -10,20 +10,20 @@ using solve_phases::SolvePhases;
 
 namespace {
 
-nlohmann::json record_of(const SolveArgs& a) {
-  const SolvePlan p = plan_solve(a);
-  LoadedSolve L;
-  load_solve(a, p, L);
-  const SolveRun run = run_solver(a, p, L);
-  const Checked c = verify_solve(a, p, L, run.res);
-  return solve_record(SolveReport{a, p, L, run, c, 1.5});
-}
+class SolveRecord : public SolvePhases {
+ protected:
+  nlohmann::json record() {
+    const auto s = solved();
+    const Checked c = verify_solve(args, s->p, s->L, s->run.res);
+    return solve_record(SolveReport{args, s->p, s->L, s->run, c, 1.5});
+  }
+};
 
 }  // namespace
 
-TEST_F(SolvePhases, RecordOfAVerifiedRun) {
+TEST_F(SolveRecord, RecordOfAVerifiedRun) {
   args.storage = "csr";
-  const nlohmann::json rec = record_of(args);
+  const nlohmann::json rec = record();
   const nlohmann::json& params = rec.at("params");
   EXPECT_EQ(params.at("command"), "solve");
   EXPECT_EQ(params.at("patches"), 4);
@@ -46,11 +46,11 @@ TEST_F(SolvePhases, RecordOfAVerifiedRun) {
   EXPECT_FALSE(rec.contains("mpi"));
 }
 
-TEST_F(SolvePhases, RecordWithoutVerifyAndWithHistory) {
+TEST_F(SolveRecord, RecordWithoutVerifyAndWithHistory) {
   args.verify = false;
   args.cfg.history = true;
   args.cfg.steps = 4;
-  const nlohmann::json rec = record_of(args);
+  const nlohmann::json rec = record();
   EXPECT_TRUE(rec.at("result").at("error_vs_reference").is_null());
   EXPECT_FALSE(rec.at("result").contains("reference"));
   EXPECT_TRUE(rec.at("verify").at("agreed").is_null());

@@ -14,10 +14,8 @@ TEST_F(SolvePhases, RunsThePlansMethodAndDrawsSnapshots) {
   args.snapshot_prefix = file("snap");
   args.size = "16x12";
   args.exposure = 2;
-  const SolvePlan p = plan_solve(args);
-  LoadedSolve L;
-  load_solve(args, p, L);
-  const SolveRun run = run_solver(args, p, L);
+  const auto s = solved();
+  const SolveRun& run = s->run;
   EXPECT_EQ(run.res.status, SolveStatus::converged);
   EXPECT_EQ(run.res.B.size(), 4u);
   EXPECT_EQ(run.ropt.exposure, 2);
@@ -27,10 +25,8 @@ TEST_F(SolvePhases, RunsThePlansMethodAndDrawsSnapshots) {
 
 TEST_F(SolvePhases, FixedStepsRunExactlyThem) {
   args.cfg.steps = 3;
-  const SolvePlan p = plan_solve(args);
-  LoadedSolve L;
-  load_solve(args, p, L);
-  const SolveRun run = run_solver(args, p, L);
+  const auto s = solved();
+  const SolveRun& run = s->run;
   EXPECT_EQ(run.res.status, SolveStatus::steps_done);
   EXPECT_EQ(run.res.iterations, 3);
 }

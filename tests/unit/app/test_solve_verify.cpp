@@ -11,11 +11,9 @@ using solve_phases::SolvePhases;
 
 TEST_F(SolvePhases, ConvergedRunAgreesWithItsReference) {
   args.cfg.tol = 1e-8;
-  const SolvePlan p = plan_solve(args);
-  LoadedSolve L;
-  load_solve(args, p, L);
-  const SolveRun run = run_solver(args, p, L);
-  const Checked c = verify_solve(args, p, L, run.res);
+  const auto s = solved();
+  LoadedSolve& L = s->L;
+  const Checked c = verify_solve(args, s->p, L, s->run.res);
   ASSERT_TRUE(c.made);
   EXPECT_TRUE(c.v.agreed);
   EXPECT_LE(c.v.max_rel_diff, c.v.bound);
@@ -28,11 +26,9 @@ TEST_F(SolvePhases, ConvergedRunAgreesWithItsReference) {
 
 TEST_F(SolvePhases, NoVerifyMakesNoCheck) {
   args.verify = false;
-  const SolvePlan p = plan_solve(args);
-  LoadedSolve L;
-  load_solve(args, p, L);
-  const SolveRun run = run_solver(args, p, L);
-  const Checked c = verify_solve(args, p, L, run.res);
+  const auto s = solved();
+  LoadedSolve& L = s->L;
+  const Checked c = verify_solve(args, s->p, L, s->run.res);
   EXPECT_FALSE(c.made);
   EXPECT_FALSE(L.have_ref);
   EXPECT_EQ(L.ref.B.size(), 0u);
