@@ -58,7 +58,7 @@ std::string held_in_words(const SolvePlan& p, const LoadedSolve& L, double copy_
 // on the mesh only).
 void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   const size_t n = L.n;
-  const bool dense16 = a.storage == "dense" && p.values != FFValues::float32, sparse = L.sparse_file;
+  const bool dense16 = p.storage == FFStorage::dense && p.values != FFValues::float32, sparse = L.sparse_file;
   const double sparse_bytes = double(L.file_info.payload_bytes);
   // On MPI ranks, rows in blocks of equal count: a rank holds every row of its block, dense, so equal counts balance
   // the memory, which decides how many ranks a scene needs. Rows of reflectivity 0 are held but not computed; the
@@ -135,7 +135,7 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
              : p.backend->any_storage ? count_bridges(sys.F, L.n, sys.reflectivity, a.threshold)
                                       : 0;
   if (L.sparse_file) return L.matrix->view().storage;
-  if (a.storage != "auto") return parse_ff_storage(a.storage);
+  if (p.storage) return *p.storage;
   size_t rows_needed = 0;
   for (size_t i = L.block.begin; i < L.block.end; ++i) rows_needed += row_needed(sys.reflectivity[i]);
   return fewest_bytes_storage(readable_storages(*p.backend), p.values, StorageCounts{L.n, L.kept, *bridges, rows_needed});

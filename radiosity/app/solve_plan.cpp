@@ -34,11 +34,12 @@ void check_solve_files(const SolveArgs& a, const SolveConfig& cfg) {
 }
 
 // What the backend reads: its rows, its storage, its error reference.
-void check_backend_reads(const SolveArgs& a, const SolveBackend& b, FFValues values) {
+void check_backend_reads(const SolveArgs& a, const SolvePlan& p) {
+  const SolveBackend& b = *p.backend;
   if (b.distributed && !a.reference_ff.empty())
     throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
                             "--ff (solve the finer mesh with serial or openmp)");
-  if (!b.any_storage && ((a.storage != "auto" && a.storage != "dense") || values != FFValues::float32))
+  if (!b.any_storage && ((p.storage && *p.storage != FFStorage::dense) || p.values != FFValues::float32))
     throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only: --storage " +
                             "csr|compressed and --ff-precision float16|bfloat16 run on serial and openmp");
 }
@@ -63,10 +64,11 @@ SolvePlan plan_solve(const SolveArgs& a) {
     std::tie(p.width, p.height) = parse_size(a.size);
     p.backend = &require_backend(p.cfg.backend);  // before anything is read for it
     p.values = parse_ff_values(a.ff_precision);
+    if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
     p.limit = a.memory_limit();
     check_solve_files(a, p.cfg);
     if (p.cfg.steps == 0) hpcgi::check_tolerance(p.cfg.tol, p.cfg.precision);
-    check_backend_reads(a, *p.backend, p.values);
+    check_backend_reads(a, p);
     check_config(p.cfg);
   });
   p.dist = p.backend->distributed;

@@ -5,6 +5,7 @@
 // one statement of what a backend runs) and what the backend reads. A sparse form-factor file's own rules are
 // checked when its header is read (plan_sparse_file, called by the load).
 #pragma once
+#include <optional>
 #include <string>
 
 #include "radiosity/app/commands.hpp"
@@ -18,6 +19,7 @@ struct SolvePlan {
   SolveConfig cfg;                      // as given, with --threads
   const SolveBackend* backend = nullptr;
   FFValues values = FFValues::float32;  // --ff-precision
+  std::optional<FFStorage> storage;     // --storage; none: auto (chosen when the kept values are counted)
   double limit = 0;                     // --max-memory-per-rank in bytes, 0: none
   int width = 0, height = 0;            // --size
   int ranks = 1, rank = 0;              // MPI (1, 0 without)

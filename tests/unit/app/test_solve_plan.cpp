@@ -34,6 +34,12 @@ TEST_F(SolvePhases, PlanOfADefaultRequest) {
   EXPECT_EQ(p.values, FFValues::float32);
   EXPECT_FALSE(p.dist);
   EXPECT_EQ(p.limit, 0);
+  EXPECT_FALSE(p.storage.has_value());  // auto
+  args.storage = "compressed";
+  args.ff_precision = "bfloat16";
+  const SolvePlan q = plan_solve(args);
+  EXPECT_EQ(q.storage, FFStorage::compressed);
+  EXPECT_EQ(q.values, FFValues::bfloat16);
 }
 
 TEST_F(SolvePhases, PlanRefusesWhatCannotRun) {
