@@ -1,6 +1,8 @@
 #include "radiosity/formfactor/form_factors.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <utility>
 
 #include "common/errors.hpp"
 
@@ -22,6 +24,17 @@ void validate(const HemicubeParams& p) {
                             std::to_string(p.resolution));
   if (!std::isfinite(p.threshold) || p.threshold < 0)
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0, got " + std::to_string(p.threshold));
+}
+
+}  // namespace radiosity
+
+namespace radiosity {
+
+FormFactors whole_matrix(FormFactorRows&& rows) {
+  if (rows.row_begin != 0 || rows.row_end != rows.n)
+    throw std::logic_error("whole_matrix: rows " + std::to_string(rows.row_begin) + ".." + std::to_string(rows.row_end) +
+                           " of " + std::to_string(rows.n) + " are not every row");
+  return FormFactors{rows.n, std::move(rows.values), rows.params};
 }
 
 }  // namespace radiosity

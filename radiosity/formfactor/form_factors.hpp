@@ -2,6 +2,7 @@
 // the solvers read.
 #pragma once
 #include <cstddef>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -46,5 +47,18 @@ struct FormFactorRows {
   HemicubeParams params;
   size_t rows() const { return row_end - row_begin; }
 };
+
+// The one conversion between the two (the values move, nothing is copied): a whole matrix as the block of all its
+// rows, and a block of all rows as the whole matrix.
+inline FormFactorRows all_rows(FormFactors&& whole) {
+  FormFactorRows rows;
+  rows.n = whole.n;
+  rows.row_end = whole.n;
+  rows.values = std::move(whole.values);
+  rows.params = whole.params;
+  return rows;
+}
+// Throws std::logic_error for a block that is not every row.
+FormFactors whole_matrix(FormFactorRows&& rows);
 
 }  // namespace radiosity

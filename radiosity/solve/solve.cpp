@@ -139,27 +139,19 @@ bool solve_one_channel(const System& sys, const SolveConfig& cfg) {
   return cfg.channels == "auto" && b && b->one_channel && is_grey(sys);
 }
 
-SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
-  check_system(sys);
-  const SolveBackend* b = find_backend(cfg.backend);
+const SolveBackend& require_backend(const std::string& name) {
+  const SolveBackend* b = find_backend(name);
   if (!b) {
-    std::vector<std::string> names;
-    for (const SolveBackend& x : solve_backends()) names.push_back(x.name);
-    throw hpcgi::UsageError("unknown solver backend '" + cfg.backend + "' (known: " + joined(names) + ")");
+    std::string names;
+    for (const SolveBackend& x : solve_backends()) names += (names.empty() ? "" : " | ") + x.name;
+    throw hpcgi::UsageError("unknown solver backend '" + name + "' (known: " + names + ")");
   }
   if (!b->built) throw hpcgi::UsageError("solver backend '" + b->name + "' is not available: " + b->why_not);
-  if (!holds_all_rows(sys) && !b->distributed)
-    throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
-                            std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
-                            " (an MPI rank's share): use backend mpi");
-  if (sys.stored.n && !b->any_storage) {
-    std::string which;
-    for (const SolveBackend& x : solve_backends())
-      if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
-    throw hpcgi::UsageError("backend '" + b->name + "' reads dense float32 form factors only, not " +
-                            to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
-                            " read any storage)");
-  }
+  return *b;
+}
+
+void check_config(const SolveConfig& cfg) {
+  const SolveBackend* b = &require_backend(cfg.backend);
   check_choice("method", cfg.method, {"jacobi", "bicgstab", "gauss-seidel", "sor"}, *b, b->methods);
   check_choice("layout", cfg.layout, {"aos", "soa"}, *b, b->layouts);
   check_choice("precision", cfg.precision, {"float", "double"}, *b, b->precisions);
@@ -189,6 +181,24 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
   if (cfg.channels != "auto" && cfg.channels != "3")
     throw hpcgi::UsageError("channels must be auto or 3, got '" + cfg.channels + "'");
+}
+
+SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
+  check_system(sys);
+  const SolveBackend* b = &require_backend(cfg.backend);
+  if (!holds_all_rows(sys) && !b->distributed)
+    throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
+                            std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
+                            " (an MPI rank's share): use backend mpi");
+  if (sys.stored.n && !b->any_storage) {
+    std::string which;
+    for (const SolveBackend& x : solve_backends())
+      if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
+    throw hpcgi::UsageError("backend '" + b->name + "' reads dense float32 form factors only, not " +
+                            to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
+                            " read any storage)");
+  }
+  check_config(cfg);
   if (cfg.start == "rrv") return b->run(sys, cfg, callback);
   System started = sys;  // the same F (not owned), another b_0
   started.initial = start_vector(sys, cfg.start);

@@ -111,6 +111,14 @@ bool solve_one_channel(const System& sys, const SolveConfig& cfg);
 // The starting vector cfg.start names: sys.initial (rrv), zeros, or the emission.
 std::vector<Rgb> start_vector(const System& sys, const std::string& start);
 
+// The backend of that name; throws hpcgi::UsageError for an unknown one or one this binary was built without.
+const SolveBackend& require_backend(const std::string& name);
+
+// Throws hpcgi::UsageError for a configuration no backend runs as asked (unknown or unsupported method, layout,
+// precision; bicgstab with steps; original without steps; ...), before any system exists: the one statement of
+// these rules, which solve() applies too and an application may apply first to refuse a request early.
+void check_config(const SolveConfig& cfg);
+
 // Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
 // precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the
 // status (breakdown, nonfinite, divergent) for the caller to turn into exit status 3.

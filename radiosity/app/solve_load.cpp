@@ -1,0 +1,228 @@
+#include "radiosity/app/solve_load.hpp"
+
+#include <cstdio>
+#include <filesystem>
+
+#include "common/comm.hpp"
+#include "common/errors.hpp"
+#include "common/memory.hpp"
+#include "common/timer.hpp"
+#include "radiosity/app/solve_verify.hpp"
+#include "radiosity/solve/storage/ff_matrix_file.hpp"
+#include "radiosity/solve/storage/storage_choice.hpp"
+#ifdef HAVE_MPI
+#include "radiosity/dist/ff_mpi.hpp"
+#endif
+
+namespace radiosity::app {
+namespace {
+
+void load_mesh(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  L.m = hpcgi::comm::agreed([&] {
+    Mesh mesh = load_scene(a, &L.load_s);
+    require_rows_for_ranks(mesh.size(), p.dist ? p.ranks : 1);
+    return mesh;
+  });
+  L.n = L.m.size();
+  L.n2 = double(L.n) * double(L.n);
+  L.patches = std::to_string(L.n) + " patches";
+}
+
+// A sparse file (version 2) is read as it is stored, never dense (ff_matrix_file.hpp). Its header says so; what
+// is no file at all is taken for a dense one here (the memory check refuses it from the patch count, the load
+// by what it is).
+void read_file_info(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  L.file_info = hpcgi::comm::agreed([&] {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(a.ff, ec)) return FormFactorFileInfo{};
+    FormFactorFileInfo info = check_any_form_factor_file(a.ff, L.m);
+    if (info.version != 1) plan_sparse_file(a, *p.backend, info);
+    return info;
+  });
+  L.sparse_file = L.file_info.version != 1;
+}
+
+// What a process holds of a solve, in words: the file's values, their 16-bit copy, the vectors, the picture.
+std::string held_in_words(const SolvePlan& p, const LoadedSolve& L, double copy_bytes, double picture_bytes) {
+  const std::string values = L.sparse_file ? L.file_info.storage + " " + L.file_info.precision : "dense float32";
+  const std::string rows =
+      p.dist ? "of rank " + std::to_string(p.rank) + "'s " + std::to_string(L.block.rows()) + " rows " : "";
+  return "the form-factor file's " + values + " values " + rows + gib(L.file_bytes) +
+         (copy_bytes > 0 ? ", their 16-bit copy " + gib(copy_bytes) : "") + ", vectors " + gib(vector_bytes(L.n)) +
+         (picture_bytes > 0 ? ", the picture " + gib(picture_bytes) : "");
+}
+
+// Memory: the file's dense float32 values (always read whole; on MPI ranks each its block of rows), or a sparse
+// file's matrix, a 16-bit dense copy, the vectors; a CSR copy is checked once its size is known (the kept values
+// are counted after loading). --max-memory-per-rank is checked first, the same on every rank (the split depends
+// on the mesh only).
+void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  const size_t n = L.n;
+  const bool dense16 = p.storage == FFStorage::dense && p.values != FFValues::float32, sparse = L.sparse_file;
+  const double sparse_bytes = double(L.file_info.payload_bytes);
+  // On MPI ranks, rows in blocks of equal count: a rank holds every row of its block, dense, so equal counts balance
+  // the memory, which decides how many ranks a scene needs. Rows of reflectivity 0 are held but not computed; the
+  // compute can be off balance by at most their share (lights, usually a few percent).
+  const std::vector<uint64_t> row_work(n, 1);
+  // Rank 0 draws the pictures: an RGB image, its depth buffer and its colour sums (render.cpp), 35 bytes a pixel.
+  const double picture_bytes = (a.png.empty() && a.snapshots.empty()) ? 0.0 : 35.0 * double(p.width) * double(p.height);
+  const NeedsAt needs = [&](int ranks) {
+    const std::vector<size_t> b = dist::split_by_work(row_work, ranks);  // ranks > 1 for a serial run: what mpi would hold
+    std::vector<RankNeed> v;
+    for (int r = 0; r < ranks; ++r) {
+      const size_t rows = b[r + 1] - b[r];
+      v.push_back({rows, sparse ? sparse_bytes : (4.0 + (dense16 ? 2.0 : 0.0)) * double(rows) * double(n),
+                   vector_bytes(n) + (r == 0 ? picture_bytes : 0)});
+    }
+    return v;
+  };
+  const std::vector<size_t> bounds = p.dist ? dist::split_by_work(row_work, p.ranks) : std::vector<size_t>{0, n};
+  L.block = dist::block_of(bounds, p.dist ? p.rank : 0);
+  require_memory_per_rank(p.limit, needs, p.ranks, "a solve of " + L.patches, "bin/radiosity solve ... --backend mpi");
+  if (p.dist) L.rank_needs = needs(p.ranks);
+  L.file_bytes = sparse ? sparse_bytes : 4.0 * double(L.block.rows()) * double(n);
+  const double copy_bytes = dense16 ? 2 * L.n2 : 0, picture = p.root ? picture_bytes : 0;
+  hpcgi::comm::agreed([&] {
+    hpcgi::require_host_memory("a solve of " + L.patches + " (" + held_in_words(p, L, copy_bytes, picture) + ")",
+                               L.file_bytes + copy_bytes + vector_bytes(n) + picture);
+  });
+}
+
+// The file's values as stored: a sparse file's matrix, an MPI rank's block of rows, or every row.
+void read_form_factors(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  hpcgi::Timer t;
+  if (L.sparse_file) {
+    L.ff.n = L.n;
+    L.ff.row_end = L.n;
+    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.m, &L.ff.params));
+  } else if (p.dist) {
+#ifdef HAVE_MPI
+    dist::FileStats st;
+    L.ff = dist::load_form_factor_rows(a.ff, L.m, L.block, &st);
+    L.rank_read_s = st.io_s;
+    L.rank_checksum_s = st.checksum_s;
+    L.rank_chain_s = st.chain_s;
+#endif
+  } else {
+    L.ff = all_rows(load_form_factors(a.ff, L.m));
+  }
+  L.ff_load_s = t.seconds();
+  static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
+  L.sys = make_system(L.m, L.ff.values.empty() ? &kNoRows : L.ff.values.data());
+  if (L.sparse_file) {
+    L.sys.F = nullptr;
+    L.sys.stored = L.matrix->view();
+  }
+  if (p.dist) {
+    L.sys.rows_begin = L.block.begin;
+    L.sys.rows_end = L.block.end;
+  }
+}
+
+// The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
+// (the threshold dropped some) and *bridges (compressed's).
+FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, bool* dropped, size_t* bridges) {
+  const System& sys = L.sys;
+  // Counted over this process's rows (on MPI ranks: summed over the ranks).
+  auto kept_at = [&](double threshold) {
+    uint64_t k = count_kept(sys.F, L.n, sys.reflectivity, threshold, L.block.begin, L.block.end);
+    hpcgi::comm::sum(&k, 1);
+    return size_t(k);
+  };
+  L.kept = L.sparse_file ? L.matrix->kept() : kept_at(a.threshold);
+  *dropped = !L.sparse_file && a.threshold > 0 && L.kept != kept_at(0);
+  *bridges = L.sparse_file            ? L.matrix->bridges()
+             : p.backend->any_storage ? count_bridges(sys.F, L.n, sys.reflectivity, a.threshold)
+                                      : 0;
+  if (L.sparse_file) return L.matrix->view().storage;
+  if (p.storage) return *p.storage;
+  size_t rows_needed = 0;
+  for (size_t i = L.block.begin; i < L.block.end; ++i) rows_needed += row_needed(sys.reflectivity[i]);
+  return fewest_bytes_storage(readable_storages(*p.backend), p.values, StorageCounts{L.n, L.kept, *bridges, rows_needed});
+}
+
+// The dense file's values in the run's storage and precision (the dense values are given back).
+void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_t bridges) {
+  const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges);
+  // The dense file's values and the copy are held at once while it is built: that is what the limit must allow.
+  const double held = L.file_bytes + bytes + vector_bytes(L.n);
+  if (p.limit > 0 && held > p.limit)
+    throw hpcgi::UsageError("a solve of " + L.patches + " holds " + gib(held) + " while its " + to_string(L.storage) +
+                            " " + to_string(p.values) + " form factors (" + gib(bytes) +
+                            ") are built from the dense file (" + gib(L.file_bytes) + "), more than "
+                            "--max-memory-per-rank " + gib(p.limit) + ": write the file with formfactors --storage " +
+                            to_string(L.storage == FFStorage::dense ? FFStorage::compressed : L.storage) +
+                            " (then only those are held)");
+  hpcgi::require_host_memory("the " + std::string(to_string(L.storage)) + " " + to_string(p.values) +
+                                 " form factors of " + L.patches + " (" + std::to_string(L.kept) + " kept)",
+                             bytes);
+  FFMatrixOptions opt;
+  opt.storage = L.storage;
+  opt.values = p.values;
+  opt.threshold = a.threshold;
+  L.matrix = std::make_unique<FormFactorMatrix>(L.ff.values.data(), L.n, L.sys.reflectivity, opt);
+  std::vector<float>().swap(L.ff.values);  // the dense values are no longer needed: give their memory back
+  L.sys.F = nullptr;
+  L.sys.stored = L.matrix->view();
+}
+
+// The run's form factors: threshold, storage and precision. The default error reference is solved on the
+// file's values before they are thresholded or rounded (or after the run, when they are not).
+void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  hpcgi::Timer t;
+  bool dropped = false;
+  size_t bridges = 0;
+  L.storage = choose_storage(a, p, L, &dropped, &bridges);
+  const bool as_file = L.storage == FFStorage::dense && p.values == FFValues::float32;
+  // A sparse file's values are the run's: its reference is solved on them.
+  L.same_matrix = !L.have_ref && (L.sparse_file || (p.values == FFValues::float32 && !dropped));
+  double ref_in_build_s = 0;  // the reference solved here is no part of building the run's form factors
+  if (a.verify && !L.have_ref && !L.same_matrix) {
+    L.ref = reference_before_rounding(L.sys);
+    ref_in_build_s = L.ref.seconds;
+    L.have_ref = true;
+  }
+  L.matrix_storage_bytes = 4 * L.n2;  // all ranks together
+  if (as_file) {
+    if (dropped) apply_threshold(L.ff.values.data(), L.n, a.threshold, L.block.rows());
+  } else if (L.sparse_file) {
+    L.matrix_storage_bytes = L.matrix->bytes();
+  } else {
+    convert_dense(a, p, L, bridges);
+    L.matrix_storage_bytes = L.matrix->bytes();
+  }
+  size_t rows_without_reflection = 0;
+  for (const Rgb& rho : L.sys.reflectivity) rows_without_reflection += !row_needed(rho);
+  // The backends that read any storage skip those rows, and mpi (the same product); the others compute them.
+  L.skipped_rows = p.backend->any_storage || p.backend->distributed ? rows_without_reflection : 0;
+  if (p.cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
+    hpcgi::require_host_memory("backend original's cache lines for " + L.patches,
+                               16.0 * (double(L.kept) + double(rows_without_reflection) * double(L.n)));
+  L.ff_build_s = t.seconds() - ref_in_build_s;
+}
+
+}  // namespace
+
+std::string gib(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f GiB", bytes / (1 << 30));
+  return buf;
+}
+
+double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
+
+void load_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  load_mesh(a, p, L);
+  // The error reference from other form factors (a finer hemicube or mesh), solved and freed before the run's
+  // own form factors are loaded, so that the two never take memory at once.
+  if (a.verify && !a.reference_ff.empty()) {
+    L.ref = reference_from_file(a, L.m);
+    L.have_ref = true;
+  }
+  read_file_info(a, p, L);
+  check_memory(a, p, L);
+  read_form_factors(a, p, L);
+  build_matrix(a, p, L);
+}
+
+}  // namespace radiosity::app

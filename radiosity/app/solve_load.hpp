@@ -1,0 +1,52 @@
+// Phase 2 of `bin/radiosity solve` (solve_cmd.cpp): the load. The scene, its mesh, the form factors of --ff in the
+// one block-of-rows type (FormFactorRows: every row, or an MPI rank's block; a sparse file as its matrix), the
+// matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. The
+// error reference is solved here where it must be solved before the values it needs are gone (--reference-ff before
+// the run's own form factors are read; the file's values before they are thresholded or rounded: solve_verify.hpp).
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "radiosity/app/distributed.hpp"
+#include "radiosity/app/reference.hpp"
+#include "radiosity/app/solve_plan.hpp"
+#include "radiosity/dist/split.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
+
+namespace radiosity::app {
+
+struct LoadedSolve {
+  Mesh m;
+  size_t n = 0;
+  double n2 = 0;          // n², the dense matrix's entries
+  std::string patches;    // "N patches"
+  double load_s = 0, ff_load_s = 0, ff_build_s = 0;
+  FormFactorFileInfo file_info;  // version 1: dense (or not yet a file), else sparse
+  bool sparse_file = false;
+  dist::RowBlock block;              // this process's rows
+  std::vector<RankNeed> rank_needs;  // what each rank holds (the record's mpi section)
+  double file_bytes = 0;             // the file's values this process holds
+  FormFactorRows ff;                 // the file's dense values (empty for a sparse file)
+  std::unique_ptr<FormFactorMatrix> matrix;  // the run's matrix when it is not ff itself
+  System sys;
+  FFStorage storage = FFStorage::dense;
+  size_t kept = 0, skipped_rows = 0;
+  double matrix_storage_bytes = 0;
+  double rank_read_s = 0, rank_checksum_s = 0, rank_chain_s = 0;  // backend mpi: this rank's read of its rows
+  ErrorReference ref;        // the error reference, once solved (have_ref)
+  bool have_ref = false;
+  bool same_matrix = false;  // the run's matrix is the reference's: the reference is the converged solution
+};
+
+// Fills L (it holds the system's matrix: L is not moved). Throws hpcgi::UsageError (agreed) for a scene or file
+// that does not fit the request or the memory.
+void load_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L);
+
+// The bytes in GiB, as the memory messages say them.
+std::string gib(double bytes);
+// Vectors of a solve and of its float64 references beside it: at most BiCG-STAB's 7 slots plus ρ and E, in
+// double, three channels, twice, and the host's copies of B (a few per run).
+double vector_bytes(size_t n);
+
+}  // namespace radiosity::app

@@ -1,0 +1,92 @@
+#include "radiosity/app/solve_plan.hpp"
+
+#include <cstdio>
+#include <vector>
+
+#include "common/cli.hpp"
+#include "common/comm.hpp"
+#include "common/errors.hpp"
+#include "common/files.hpp"
+
+namespace radiosity::app {
+namespace {
+
+std::pair<int, int> parse_size(const std::string& s) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(s.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || x != 'x' || w < 1 || h < 1 || w > 16384 ||
+      h > 16384)
+    throw hpcgi::UsageError("--size must be WIDTHxHEIGHT with 1..16384 pixels each, got '" + s + "'");
+  return {w, h};
+}
+
+// The files the run reads and writes, the snapshots among them.
+void check_solve_files(const SolveArgs& a, const SolveConfig& cfg) {
+  std::vector<hpcgi::files::Output> outputs{{a.output_xml, "--output"}, {a.png, "--png"}};
+  const long last = cfg.steps > 0 ? cfg.steps : cfg.max_iter;
+  for (long k : a.snapshots) {
+    if (k < 1 || k > last)
+      throw hpcgi::UsageError("--snapshots " + std::to_string(k) + ": no such iteration (the run has at most " +
+                              std::to_string(last) + ")");
+    outputs.push_back({snapshot_file(a, k), "--snapshots"});
+  }
+  check_files(a, outputs, {{a.ff, "--ff"}, {a.reference_ff, "--reference-ff"}});
+}
+
+// What the backend reads: its rows, its storage, its error reference.
+void check_backend_reads(const SolveArgs& a, const SolvePlan& p) {
+  const SolveBackend& b = *p.backend;
+  if (b.distributed && !a.reference_ff.empty())
+    throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
+                            "--ff (solve the finer mesh with serial or openmp)");
+  if (!b.any_storage && ((p.storage && *p.storage != FFStorage::dense) || p.values != FFValues::float32))
+    throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only: --storage " +
+                            "csr|compressed and --ff-precision float16|bfloat16 run on serial and openmp");
+}
+
+}  // namespace
+
+std::string snapshot_file(const SolveArgs& a, long k) {
+  return (a.snapshot_prefix.empty() ? std::string("snapshot") : a.snapshot_prefix) + "_iter" + std::to_string(k) + ".png";
+}
+
+SolvePlan plan_solve(const SolveArgs& a) {
+  SolvePlan p;
+  p.cfg = a.cfg;
+  p.cfg.threads = a.threads;
+  // Backend mpi: every rank reads its block of rows of F and the ranks solve together; rank 0 alone prints and
+  // writes (the record, the scene, the pictures). Every check before the first collective runs on every rank alike,
+  // and the ranks agree on its outcome (comm::agreed), so that rank 0 alone reports a refusal.
+  p.ranks = hpcgi::comm::size();
+  p.rank = hpcgi::comm::rank();
+  p.root = hpcgi::comm::root();
+  hpcgi::comm::agreed([&] {
+    std::tie(p.width, p.height) = parse_size(a.size);
+    p.backend = &require_backend(p.cfg.backend);  // before anything is read for it
+    p.values = parse_ff_values(a.ff_precision);
+    if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
+    p.limit = a.memory_limit();
+    check_solve_files(a, p.cfg);
+    if (p.cfg.steps == 0) hpcgi::check_tolerance(p.cfg.tol, p.cfg.precision);
+    check_backend_reads(a, p);
+    check_config(p.cfg);
+  });
+  p.dist = p.backend->distributed;
+  return p;
+}
+
+void plan_sparse_file(const SolveArgs& a, const SolveBackend& b, const FormFactorFileInfo& info) {
+  const std::string file = "--ff '" + a.ff + "' holds " + info.storage + " " + info.precision + " form factors";
+  if (!b.any_storage)
+    throw hpcgi::UsageError(file + ": backend '" + b.name + "' reads dense float32 files only (write the file with "
+                            "formfactors --storage dense)");
+  if (a.storage != "auto" && a.storage != info.storage)
+    throw hpcgi::UsageError(file + ", not " + a.storage + ": give --storage auto or " + info.storage);
+  if (a.ff_precision != info.precision)
+    throw hpcgi::UsageError(file + ": give --ff-precision " + info.precision + " (the values are read as stored)");
+  if (a.threshold > 0)
+    throw hpcgi::UsageError(file + ": --threshold applies when a dense file is loaded (this file's threshold is " +
+                            std::to_string(info.params.threshold) + ")");
+}
+
+}  // namespace radiosity::app

@@ -1,0 +1,39 @@
+#include "radiosity/app/solve_run.hpp"
+
+#include <exception>
+#include <set>
+
+#include "common/comm.hpp"
+#include "radiosity/render/png_writer.hpp"
+
+namespace radiosity::app {
+
+SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const LoadedSolve& L) {
+  SolveRun run;
+  run.cam = hpcgi::comm::agreed([&] { return parse_view(a.view, L.m); });
+  run.ropt.exposure = a.exposure;
+  const std::set<long> snaps(a.snapshots.begin(), a.snapshots.end());
+  IterationCallback cb;
+  // On every rank (fetching B is collective), drawn by rank 0. A failure to write is kept until the solve ends: a
+  // rank that left the solve early would leave the others waiting in its collectives.
+  std::exception_ptr snapshot_error;
+  if (!snaps.empty())
+    cb = [&](long it, const std::vector<Rgb>& B) {
+      if (!snaps.count(it)) return;
+      const std::string f = snapshot_file(a, it);
+      try {
+        if (p.root && !snapshot_error) write_png(f, render(L.m, B, run.cam, p.width, p.height, run.ropt));
+      } catch (...) {
+        snapshot_error = std::current_exception();
+      }
+      run.snapshot_files.push_back(f);
+    };
+  // Agreed: a refused configuration is refused by every rank before any collective (solve checks first).
+  run.res = hpcgi::comm::agreed([&] { return solve(L.sys, p.cfg, cb); });
+  hpcgi::comm::agreed([&] {
+    if (snapshot_error) std::rethrow_exception(snapshot_error);
+  });
+  return run;
+}
+
+}  // namespace radiosity::app

@@ -1,0 +1,104 @@
+#include "radiosity/app/solve_verify.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "common/comm.hpp"
+#include "common/memory.hpp"
+#include "common/timer.hpp"
+#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/solve/mesh_map.hpp"
+
+namespace radiosity::app {
+
+Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult& res, const ErrorReference* converged) {
+  hpcgi::Timer t;
+  Verification v;
+  std::vector<Rgb> R;
+  if (cfg.steps > 0) {
+    SolveConfig ref = cfg;
+    ref.backend = holds_all_rows(sys) ? "openmp" : "mpi";  // an MPI rank's system: the same ranks check it
+    ref.layout = "aos";
+    ref.precision = "double";
+    ref.channels = "3";
+    ref.ff_threshold = 0;
+    ref.fused = ref.overlap = false;
+    if (cfg.backend == "original") ref.method = "jacobi";
+    if (cfg.backend == "serial") ref.threads = 1;  // gauss-seidel and sor: the same one block of rows
+    ref.history = false;
+    SolveResult r = solve(sys, ref);
+    v.reference_iterations = r.iterations;
+    R = std::move(r.B);
+  } else {
+    const ErrorReference own = converged ? ErrorReference{} : converged_reference(sys, "the run's form factors");
+    if (!converged) converged = &own;
+    v.reference_iterations = converged->iterations;
+    R = converged->B;
+  }
+  v.max_rel_diff = max_rel_diff(res.B, R);
+  v.bound = cfg.steps > 0 ? (cfg.precision == "double" ? 1e-10 : 1e-5) : 1e-5 + 20 * cfg.tol;
+  v.agreed = v.max_rel_diff <= v.bound;
+  v.seconds = t.seconds();
+  return v;
+}
+
+ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m) {
+  Mesh fine;
+  if (a.reference_divide > 0) {
+    LoadOptions lo = a.load;
+    lo.divide = a.reference_divide;
+    fine = load_rrv_scene(a.scene, lo);
+  }
+  const Mesh& rm = a.reference_divide > 0 ? fine : m;
+  const double rn = double(rm.size());
+  hpcgi::require_host_memory("the error reference on " + std::to_string(rm.size()) + " patches (its dense float32 "
+                             "form factors " + gib(4 * rn * rn) + ", vectors " + gib(vector_bytes(rm.size())) + ")",
+                             4 * rn * rn + vector_bytes(rm.size()));
+  const FormFactors rff = load_form_factors(a.reference_ff, rm);
+  ErrorReference ref = converged_reference(make_system(rm, rff.values.data()), "");
+  char what[96];
+  std::snprintf(what, sizeof what, " (hemicube R=%d, %zu patches, divide %g)", rff.params.resolution, rm.size(),
+                rm.size() == m.size() ? a.load.divide : a.reference_divide);
+  ref.of = a.reference_ff + what;
+  if (a.reference_divide > 0 && mesh_hash(fine) != mesh_hash(m)) ref.B = area_weighted_onto(m, fine, ref.B);
+  return ref;
+}
+
+ErrorReference reference_before_rounding(const System& sys) {
+  return hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
+}
+
+Checked verify_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const SolveResult& res) {
+  Checked c;
+  c.made = a.verify && !failed(res.status);
+  if (c.made) {
+    if (!L.have_ref) L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+    if (L.ref.of.empty())
+      L.ref.of = a.ff + (L.same_matrix ? "" : " before threshold and rounding") + " (" + L.patches + ")";
+    c.v = hpcgi::comm::agreed([&] { return verify(L.sys, p.cfg, res, L.same_matrix ? &L.ref : nullptr); });
+    c.error = max_rel_diff(res.B, L.ref.B);
+  }
+  c.outcome = outcome_of(res, p.cfg, c.made ? &c.v : nullptr);
+  return c;
+}
+
+hpcgi::Outcome outcome_of(const SolveResult& res, const SolveConfig& cfg, const Verification* v) {
+  char why[256];
+  if (failed(res.status))  // a stagnant run's detail says it all ("no solution: ...")
+    return {hpcgi::kExitNumerical,
+            res.status == SolveStatus::stagnant ? res.detail : std::string(to_string(res.status)) + ": " + res.detail};
+  if (res.status == SolveStatus::max_iter) {
+    std::snprintf(why, sizeof why, "%s stopped at --max-iter %ld with the largest relative residual %.3e, above --tol %.1e",
+                  cfg.method.c_str(), cfg.max_iter,
+                  *std::max_element(res.rel_residual.begin(), res.rel_residual.end()), cfg.tol);
+    return {hpcgi::kExitNotConverged, why};
+  }
+  if (v && !v->agreed) {
+    std::snprintf(why, sizeof why, "max relative difference %.3e from the float64 reference, above the bound %.1e",
+                  v->max_rel_diff, v->bound);
+    return {hpcgi::kExitDisagreed, why};
+  }
+  return {};
+}
+
+}  // namespace radiosity::app

@@ -1,0 +1,47 @@
+// Phase 4 of `bin/radiosity solve` (solve_cmd.cpp): the verification. The float64 check of the run (BabelStream's
+// check_solution) and the error reference it is measured against (reference.hpp), and the outcome of the run as an
+// exit status (common/errors.hpp). The error reference is solved by one of the three functions below: from
+// --reference-ff before the run's own form factors are loaded, from the file's values before they are thresholded
+// or rounded (both by the load, solve_load.cpp, when those values are still there), else after the run, here.
+#pragma once
+#include <string>
+
+#include "common/errors.hpp"
+#include "radiosity/app/reference.hpp"
+#include "radiosity/app/solve_load.hpp"
+
+namespace radiosity::app {
+
+// The agreement check of a run: the same method on the run's own system, the form factors as the run stored them
+// (threshold, 16-bit values, storage), in float64, AOS, backend openmp (which agrees bit for bit with serial), three
+// channels: a fixed-step run against the same steps, where only rounding may differ; a run that stops on a
+// tolerance against the converged solution, from which it may differ by about tol times the condition number of
+// I - diag(ρ)F, at most (1 + ρ)/(1 - ρ) ≈ 19 for ρ ≤ 0.9. `converged` is that solution when the caller has it
+// already (null: computed here).
+struct Verification {
+  double max_rel_diff = 0, bound = 0, seconds = 0;
+  long reference_iterations = 0;
+  bool agreed = false;
+};
+Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult& res, const ErrorReference* converged);
+
+// The error reference from --reference-ff (and --reference-divide's finer mesh), carried onto m.
+ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m);
+// The error reference on the file's values (sys), before the run's threshold and rounding (agreed by the ranks).
+ErrorReference reference_before_rounding(const System& sys);
+
+// What the verification made of a run (made: false with --no-verify or a failed run, which is not checked).
+struct Checked {
+  bool made = false;
+  Verification v;
+  double error = 0;  // the run's max relative difference from the error reference
+  hpcgi::Outcome outcome;
+};
+// Checks the run (solving L.ref where the load has not) and says its outcome.
+Checked verify_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const SolveResult& res);
+
+// The exit status of a solve (common/errors.hpp): 3 its numbers went wrong, 4 it stopped at --max-iter, 5 its
+// float64 check (v: null when not made) disagreed, else 0.
+hpcgi::Outcome outcome_of(const SolveResult& res, const SolveConfig& cfg, const Verification* v);
+
+}  // namespace radiosity::app

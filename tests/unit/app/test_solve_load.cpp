@@ -1,0 +1,78 @@
+// The load (solve_load.cpp): the mesh, the form factors in one block-of-rows type, the run's matrix, the memory.
+#include <string>
+
+#include "common/errors.hpp"
+#include "radiosity/app/solve_load.hpp"
+#include "tests/unit/app/solve_fixture.hpp"
+
+using namespace radiosity;
+using namespace radiosity::app;
+using solve_phases::SolvePhases;
+
+TEST_F(SolvePhases, LoadsTheDenseFileAsItIs) {
+  LoadedSolve L;
+  load_solve(args, plan_solve(args), L);
+  EXPECT_EQ(L.n, 4u);
+  EXPECT_EQ(L.patches, "4 patches");
+  EXPECT_FALSE(L.sparse_file);
+  EXPECT_EQ(L.ff.rows(), 4u);
+  EXPECT_EQ(L.ff.values.size(), 16u);
+  EXPECT_EQ(L.sys.F, L.ff.values.data());
+  EXPECT_EQ(L.ff.params.resolution, 32);
+  EXPECT_TRUE(L.same_matrix);  // float32, nothing dropped: the reference is solved after the run, on this matrix
+  EXPECT_FALSE(L.have_ref);
+  EXPECT_EQ(L.skipped_rows, 2u);  // the emitting squares reflect nothing
+  EXPECT_EQ(L.matrix_storage_bytes, 4.0 * 16);
+}
+
+TEST_F(SolvePhases, RoundedValuesTakeTheirReferenceBeforeRounding) {
+  args.storage = "dense";
+  args.ff_precision = "float16";
+  LoadedSolve L;
+  load_solve(args, plan_solve(args), L);
+  EXPECT_EQ(L.storage, FFStorage::dense);
+  ASSERT_NE(L.matrix, nullptr);
+  EXPECT_EQ(L.sys.F, nullptr);
+  EXPECT_EQ(L.sys.stored.values, FFValues::float16);
+  EXPECT_TRUE(L.ff.values.empty());  // the dense values were given back
+  EXPECT_FALSE(L.same_matrix);
+  ASSERT_TRUE(L.have_ref);
+  EXPECT_TRUE(L.ref.converged);
+  EXPECT_EQ(L.ref.B.size(), 4u);
+}
+
+TEST_F(SolvePhases, NoReferenceWithoutVerify) {
+  args.storage = "csr";
+  args.verify = false;
+  LoadedSolve L;
+  load_solve(args, plan_solve(args), L);
+  EXPECT_EQ(L.storage, FFStorage::csr);
+  EXPECT_FALSE(L.have_ref);
+}
+
+TEST_F(SolvePhases, MemoryLimitRefusesBeforeLoading) {
+  args.max_memory_per_rank = "1K";
+  LoadedSolve L;
+  EXPECT_THROW(load_solve(args, plan_solve(args), L), hpcgi::UsageError);
+  EXPECT_TRUE(L.ff.values.empty());
+}
+
+TEST(FormFactorRowsConversion, WholeAndRowsMoveTheValues) {
+  FormFactors whole{2, {0, 0.5f, 0.25f, 0}, {}};
+  whole.params.resolution = 8;
+  const float* data = whole.values.data();
+  FormFactorRows rows = all_rows(std::move(whole));
+  EXPECT_EQ(rows.n, 2u);
+  EXPECT_EQ(rows.row_begin, 0u);
+  EXPECT_EQ(rows.row_end, 2u);
+  EXPECT_EQ(rows.values.data(), data);
+  EXPECT_EQ(rows.params.resolution, 8);
+  const FormFactors back = whole_matrix(std::move(rows));
+  EXPECT_EQ(back.values.data(), data);
+  EXPECT_EQ(back(0, 1), 0.5f);
+  FormFactorRows block;
+  block.n = 2;
+  block.row_begin = 1;
+  block.row_end = 2;
+  EXPECT_THROW(whole_matrix(std::move(block)), std::logic_error);
+}
