@@ -54,6 +54,11 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   // Preconditioned (the hierarchy of the comment at the top).
   double precondition() override { return sum(pcg_->precondition()); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
+  bool fused_updates() const override { return true; }
+  double calc_p_pw(double beta) override {
+    return sum(pcg_->calc_p_pw(beta, [this] { exchange({blk_.p()}, 1); }));
+  }
+  double calc_ur_p(double alpha) override { return sum(pcg_->calc_ur_p(alpha)); }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
   double apply_dot(const GridFn& x, const GridFn& y) override { return sum(pcg_->apply_dot(x, y, part_.y0)); }
   // MgComm.
@@ -109,7 +114,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   }
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
-    return pcg_ ? 11 + 2 + mg_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+    return pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
   }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {
