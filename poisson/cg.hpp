@@ -144,10 +144,12 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   res.init_s = t.seconds();
   t.reset();
   res.status = rr0 == 0.0 ? "converged" : "max_iter";
-  double rz = 0;
+  // fused: p = z + βp is made with p·Ap (calc_p_pw) at the top of the iteration, not after the V-cycle.
+  const bool fused = m.fused_updates();
+  double rz = 0, beta = 0;
   if (rr0 > 0) {
     rz = m.precondition();
-    m.calc_p_z(0.0);
+    if (!fused) m.calc_p_z(0.0);
   }
   for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
     if (!std::isfinite(rz) || rz <= 0.0) {
@@ -156,13 +158,16 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
                       " (must be finite and > 0 for a symmetric positive definite preconditioner)";
       break;
     }
-    const double pw = k.calc_w();
+    const double pw = fused ? m.calc_p_pw(beta) : k.calc_w();
     if (!detail::pw_ok(res, pw, it)) break;
-    const double rr = k.calc_ur(rz / pw);
+    const double rr = fused ? m.calc_ur_p(rz / pw) : k.calc_ur(rz / pw);
     res.iterations = it;
     if (!detail::rr_ok(res, rr, it) || detail::reached(res, rr, rr0, it, tol, progress)) break;
     const double rz_new = m.precondition();
-    m.calc_p_z(rz_new / rz);
+    if (fused)
+      beta = rz_new / rz;
+    else
+      m.calc_p_z(rz_new / rz);
     rz = rz_new;
   }
   detail::finish(k, res, rr0, t);

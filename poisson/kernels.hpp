@@ -77,6 +77,12 @@ class Preconditioned {
   virtual double precondition() = 0;
   // p = z + β p.
   virtual void calc_p_z(double beta) = 0;
+  // A backend may fuse the CG updates around the V-cycle (run_pcg): calc_p_pw does p = z + βp and returns p·Ap
+  // without storing Ap, calc_ur_p then x += αp, r -= αAp (Ap recomputed from p) and returns r·r, in place of
+  // calc_p_z, the Kernels' calc_w and calc_ur. Backends without them (fused_updates() false) keep those.
+  virtual bool fused_updates() const { return false; }
+  virtual double calc_p_pw(double /*beta*/) { return 0; }
+  virtual double calc_ur_p(double /*alpha*/) { return 0; }
   // Grid sizes of the hierarchy, finest first (for the record).
   virtual std::vector<long> mg_sizes() const = 0;
   // y·(M⁻¹x) for whole-grid vectors given as functions of the point (i, j): r = x (this rank's rows), z = M⁻¹ r,

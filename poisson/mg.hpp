@@ -69,6 +69,15 @@ inline int mg_vectors_per_cycle(long n) {
   return static_cast<int>(v + 0.5);
 }
 
+// The same for the fused level kernels of mg_cpu.hpp: presmooth_restrict in one pass (read b, write x, write a
+// quarter: 2.25; x = 0 is never stored, the residual never leaves the cache) and prolong_postsmooth in one pass
+// (read a quarter, read b and x, write x: 3.25): 5.5 n_l² per level, summed over the levels.
+inline int mg_fused_vectors_per_cycle(long n) {
+  double v = 0;
+  for (long m : mg_level_sizes(n)) v += 5.5 * (static_cast<double>(m) / n) * (static_cast<double>(m) / n);
+  return static_cast<int>(v + 0.5);
+}
+
 // The level kernels a backend supplies. Level 0's x is the backend's z, its b the CG residual r (read only).
 class MgLevels {
  public:
@@ -83,20 +92,31 @@ class MgLevels {
   }
   virtual void restrict_residual(int l) = 0;        // b_{l+1} = Pᵀ (b_l - A x_l)
   virtual void prolong_add(int l) = 0;              // x_l += P x_{l+1}
+  // The two halves of a level's V-cycle; a backend may fuse each into fewer passes over memory (mg_cpu.hpp:
+  // one pass each, from x = 0 without reading or zeroing x, the fine residual never stored), with the same values.
+  // Before the coarse correction: x_l = 0, red, black, b_{l+1} = Pᵀ (b_l - A x_l).
+  virtual void presmooth_restrict(int l) {
+    zero(l);
+    smooth_pair(l, 0);
+    restrict_residual(l);
+  }
+  // After it: x_l += P x_{l+1}, black, red.
+  virtual void prolong_postsmooth(int l) {
+    prolong_add(l);
+    smooth_pair(l, 1);
+  }
 };
 
 // x_0 = M⁻¹ b_0: one V(1,1)-cycle from x = 0 on levels l .. levels()-1.
 inline void vcycle(MgLevels& k, int l = 0) {
-  k.zero(l);
   if (l == k.levels() - 1) {  // n = 1: a x = b, solved by its one red point
+    k.zero(l);
     k.smooth(l, 0);
     return;
   }
-  k.smooth_pair(l, 0);  // red, then black
-  k.restrict_residual(l);
+  k.presmooth_restrict(l);  // x = 0, red, then black, restriction of the residual
   vcycle(k, l + 1);
-  k.prolong_add(l);
-  k.smooth_pair(l, 1);  // black, then red
+  k.prolong_postsmooth(l);  // prolongation, black, then red
 }
 
 // A value in [-1, 1) for point (i, j) of an n×n grid, the same on every rank and backend (splitmix64 of the index).

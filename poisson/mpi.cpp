@@ -6,9 +6,10 @@
 // recomputes its neighbours' edge rows rather than waiting for them), one reduction of (r·r, r·Ar).
 // Multigrid (--precond mg, mg_cpu.hpp): every level is split in row blocks as long as every rank holding rows
 // keeps at least kMgMinRows of it: coarse row J belongs to the rank holding fine row 2J + 1, so a rank's coarse
-// block is [y0/2, y1/2) of its fine block [y0, y1). Each distributed level exchanges one halo row of x before every
-// colour sweep and before the residual, one of the residual before the restriction, one of the coarse x before
-// the prolongation. The first level that would leave some rank fewer rows, and every level below it, is gathered
+// block is [y0/2, y1/2) of its fine block [y0, y1). Each distributed level's fused passes (mg_cpu.hpp) exchange
+// one halo row of x after the edge rows' first colour and one after the pass, one of the residual's edge rows
+// before the edge coarse rows, one of the coarse x before the prolongation; CG's p = z + βp one row of p after
+// its edge rows. The first level that would leave some rank fewer rows, and every level below it, is gathered
 // to every rank: the restricted rows are made whole by one MPI_Allgatherv, and each rank then runs the rest of
 // the V-cycle on the whole (small) grids by itself, the same arithmetic everywhere, and prolongs into its own rows
 // of the finer level. (Simpler than gathering to fewer ranks, and correct for any N and P, also P > N.)
@@ -54,6 +55,11 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   // Preconditioned (the hierarchy of the comment at the top).
   double precondition() override { return sum(pcg_->precondition()); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
+  bool fused_updates() const override { return true; }
+  double calc_p_pw(double beta) override {
+    return sum(pcg_->calc_p_pw(beta, [this] { exchange({blk_.p()}, 1); }));
+  }
+  double calc_ur_p(double alpha) override { return sum(pcg_->calc_ur_p(alpha)); }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
   double apply_dot(const GridFn& x, const GridFn& y) override { return sum(pcg_->apply_dot(x, y, part_.y0)); }
   // MgComm.
@@ -109,7 +115,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   }
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
-    return pcg_ ? 11 + 2 + mg_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+    return pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
   }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {

@@ -22,6 +22,9 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
   }
   double precondition() override { return pcg_->precondition(); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
+  bool fused_updates() const override { return true; }
+  double calc_p_pw(double beta) override { return pcg_->calc_p_pw(beta, [] {}); }
+  double calc_ur_p(double alpha) override { return pcg_->calc_ur_p(alpha); }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(blk_.rows()); }
   double apply_dot(const GridFn& x, const GridFn& y) override { return pcg_->apply_dot(x, y, 0); }
   double init() override { return blk_.init(); }
@@ -37,10 +40,10 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
     blk_.copy_x(out.data());
     return out;
   }
-  // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them; multigrid: classic
-  // with [p = z + βp] 3 for [p], [r·z] 2 and the V-cycle (mg.hpp).
+  // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them; multigrid:
+  // [p = z + βp, p·Ap] 3, [x, r, r·r] with Ap from p 5 and the fused V-cycle, r·z in its last pass (mg.hpp).
   int vectors_per_iteration() const override {
-    return pcg_ ? 11 + 2 + mg_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
+    return pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
   }
   std::map<std::string, std::string> info() const override {
     return {{"threads", std::to_string(omp_get_max_threads())}};

@@ -264,6 +264,20 @@ def test_mpi_mg_with_threads_and_halo_matches_serial(tmp_path, serial_mg, halo):
     assert_matches(rec, x, serial_mg[257])
 
 
+# The fused passes of mg_cpu.hpp split each threaded level's rows among the threads (levels of >= 2^16 points):
+# at N = 513 on 2 ranks with 2 and 3 threads the two finest levels are split among ranks and threads (256 rows of
+# 513 per rank), and openmp with 3 threads splits the whole levels down to N = 256.
+@requires_mpi
+@pytest.mark.parametrize("threads", [2, 3])
+def test_mg_threaded_split_levels_match_serial(tmp_path, threads):
+    ref = solve(tmp_path, "ser", "--n", 513, "--backend", "serial", "--precond", "mg")
+    for backend, ranks in (("mpi", 2), ("openmp", None)):
+        rec, x = solve(tmp_path, backend, "--n", 513, "--backend", backend, "--precond", "mg", "--threads", threads,
+                       np_=ranks)
+        assert rec["result"]["iterations"] == ref[0]["result"]["iterations"]
+        assert_matches(rec, x, ref)
+
+
 # (M⁻¹x)·y = x·(M⁻¹y) to 1e-12 relative on random x, y, on every CPU backend and rank count.
 @pytest.mark.parametrize("backend,ranks", [("serial", None), ("openmp", None), *(("mpi", r) for r in (1, 2, 3, 4, 7))])
 @pytest.mark.parametrize("n", [100, 257])
