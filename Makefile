@@ -61,6 +61,7 @@ SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
 SUITE_relight    := common scene formfactor solve relight
+SUITE_app        := common scene formfactor solve render app dist relight
 SUITES := $(notdir $(wildcard tests/unit/*))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))

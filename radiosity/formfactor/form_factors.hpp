@@ -47,4 +47,9 @@ struct FormFactorRows {
   size_t rows() const { return row_end - row_begin; }
 };
 
+// The whole matrix as the block of all its rows, and back; the values are moved, not copied. from_rows takes a
+// block of every row only (row_begin 0, row_end n): anything else is a logic error.
+FormFactorRows to_rows(FormFactors&& ff);
+FormFactors from_rows(FormFactorRows&& rows);
+
 }  // namespace radiosity
