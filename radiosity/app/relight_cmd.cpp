@@ -123,6 +123,7 @@ void add_relight(CLI::App& app, RelightArgs& a) {
       "relight",
       "frames of new light intensities/colours (served from the light basis) and reflectivities (solved warm from the "
       "previous frame) over the scene's fixed form factors");
+  cmd->footer(hpcgi::exit_status_help());
   add_scene_options(cmd, a);
   cmd->add_option("--ff", a.ff, "form-factor file written by `bin/radiosity formfactors` for this scene")->required();
   auto* frames = cmd->add_option("--frames", a.frames,
@@ -256,6 +257,7 @@ int run_relight(const RelightArgs& a) {
   std::vector<double> all_ms, basis_ms, solved_ms;
   double worst_error = 0, worst_residual = 0;
   long checked = 0, solved = 0, over_tol = 0;
+  hpcgi::Outcome outcome;  // 4 when a solved frame stopped at --max-iter (not at --frame-budget-ms)
   nlohmann::json per_frame = nlohmann::json::array();
   std::vector<std::string> pngs;
   for (size_t k = 0; k < frames.size(); ++k) {
@@ -313,6 +315,12 @@ int run_relight(const RelightArgs& a) {
       if (failed(res.status))
         throw hpcgi::NumericalError("frame " + std::to_string(k) + ": " + to_string(res.status) + ": " + res.detail);
       const double r = *std::max_element(res.rel_residual.begin(), res.rel_residual.end());
+      if (!stopped && res.status == SolveStatus::max_iter && outcome.status == hpcgi::kExitOk) {
+        char why[256];
+        std::snprintf(why, sizeof why, "frame %zu: %s stopped at --max-iter %ld with the largest relative residual "
+                      "%.3e, above --tol %.1e", k, cfg.method.c_str(), cfg.max_iter, r, cfg.tol);
+        outcome = {hpcgi::kExitNotConverged, why};
+      }
       fr["kind"] = "solved";
       fr["iterations"] = res.iterations;
       fr["residual"] = r;
@@ -414,7 +422,9 @@ int run_relight(const RelightArgs& a) {
     if (checked) std::printf("  worst error against a cold float64 solve over %ld checked frames: %.3e\n", checked, worst_error);
     if (!pngs.empty()) std::printf("  frames rendered: %s .. %s\n", pngs.front().c_str(), pngs.back().c_str());
   }
+  hpcgi::record::set_outcome(rec, outcome);
   hpcgi::record::emit(rec, a);
+  hpcgi::finish(outcome);
   return 0;
 }
 

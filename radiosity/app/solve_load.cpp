@@ -104,7 +104,7 @@ void read_form_factors(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
     L.rank_chain_s = st.chain_s;
 #endif
   } else {
-    L.ff = all_rows(load_form_factors(a.ff, L.m));
+    L.ff = to_rows(load_form_factors(a.ff, L.m));
   }
   L.ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)

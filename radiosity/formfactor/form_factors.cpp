@@ -26,14 +26,20 @@ void validate(const HemicubeParams& p) {
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0, got " + std::to_string(p.threshold));
 }
 
-}  // namespace radiosity
+FormFactorRows to_rows(FormFactors&& ff) {
+  FormFactorRows rows;
+  rows.n = ff.n;
+  rows.row_begin = 0;
+  rows.row_end = ff.n;
+  rows.values = std::move(ff.values);
+  rows.params = ff.params;
+  return rows;
+}
 
-namespace radiosity {
-
-FormFactors whole_matrix(FormFactorRows&& rows) {
+FormFactors from_rows(FormFactorRows&& rows) {
   if (rows.row_begin != 0 || rows.row_end != rows.n)
-    throw std::logic_error("whole_matrix: rows " + std::to_string(rows.row_begin) + ".." + std::to_string(rows.row_end) +
-                           " of " + std::to_string(rows.n) + " are not every row");
+    throw std::logic_error("from_rows: rows " + std::to_string(rows.row_begin) + ".." + std::to_string(rows.row_end) +
+                           " are not all of the " + std::to_string(rows.n) + " rows of F");
   return FormFactors{rows.n, std::move(rows.values), rows.params};
 }
 

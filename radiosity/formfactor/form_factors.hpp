@@ -48,17 +48,9 @@ struct FormFactorRows {
   size_t rows() const { return row_end - row_begin; }
 };
 
-// The one conversion between the two (the values move, nothing is copied): a whole matrix as the block of all its
-// rows, and a block of all rows as the whole matrix.
-inline FormFactorRows all_rows(FormFactors&& whole) {
-  FormFactorRows rows;
-  rows.n = whole.n;
-  rows.row_end = whole.n;
-  rows.values = std::move(whole.values);
-  rows.params = whole.params;
-  return rows;
-}
-// Throws std::logic_error for a block that is not every row.
-FormFactors whole_matrix(FormFactorRows&& rows);
+// The whole matrix as the block of all its rows, and back; the values are moved, not copied. from_rows takes a
+// block of every row only (row_begin 0, row_end n): anything else is a logic error.
+FormFactorRows to_rows(FormFactors&& ff);
+FormFactors from_rows(FormFactorRows&& rows);
 
 }  // namespace radiosity

@@ -479,12 +479,7 @@ FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& 
 
 FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params, const HemicubeProgress& progress,
                                  double progress_interval_s) {
-  FormFactorRows rows = compute_form_factor_rows(mesh, params, 0, mesh.size(), progress, progress_interval_s);
-  FormFactors ff;
-  ff.n = rows.n;
-  ff.params = rows.params;
-  ff.values = std::move(rows.values);
-  return ff;
+  return from_rows(compute_form_factor_rows(mesh, params, 0, mesh.size(), progress, progress_interval_s));
 }
 
 double hemicube_memory_bytes(size_t n, size_t rows, int resolution, int threads) {

@@ -111,6 +111,25 @@ def test_frame_budget_stops_and_reports_the_residual(scene2):
     assert f["status"] == "budget" and f["residual"] > 1e-12 and np.isfinite(f["residual"])
 
 
+def test_frame_stopped_at_max_iter_exits_4_with_its_record(scene2):
+    d, ff, basis = scene2
+    frames = d / "maxiter.json"
+    frames.write_text(json.dumps({"frames": [{"reflectivity": {"room.1": [0.8, 0.8, 0.8]}}, {}]}))
+    rec_file = d / "maxiter.jsonl"
+    rec_file.unlink(missing_ok=True)
+    p = relight(ff, "--frames", frames, "--tol", "1e-12", "--max-iter", "2", "--record", rec_file)
+    assert p.returncode == 4, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "not converged: frame 0: jacobi stopped at --max-iter 2" in lines[0], p.stderr
+    rec = json.loads(rec_file.read_text().splitlines()[-1])
+    res = rec["result"]
+    assert res["exit_status"] == 4 and res["exit_reason"].startswith("frame 0: jacobi stopped at --max-iter 2")
+    assert [f["status"] for f in res["per_frame"]] == ["max_iter", "max_iter"] and res["solved_over_tol"] == 2
+    # the same frames to a tolerance they reach are an answer: exit 0, exit_status 0
+    ok = record(relight(ff, "--frames", frames, "--tol", "1e-4"))["result"]
+    assert ok["exit_status"] == 0 and ok["exit_reason"] is None
+
+
 @pytest.mark.parametrize("text,reason", [
     ('{"frames": [{}, {"lights": {"lamp.7": {"intensity": 1}}}]}', "frame 1: unknown light 'lamp.7'"),
     ('{"frames": [{"lights": {"light.1": {"intensity": NaN}}}]}', "(frame 0)"),

@@ -56,23 +56,3 @@ TEST_F(SolvePhases, MemoryLimitRefusesBeforeLoading) {
   EXPECT_THROW(load_solve(args, plan_solve(args), L), hpcgi::UsageError);
   EXPECT_TRUE(L.ff.values.empty());
 }
-
-TEST(FormFactorRowsConversion, WholeAndRowsMoveTheValues) {
-  FormFactors whole{2, {0, 0.5f, 0.25f, 0}, {}};
-  whole.params.resolution = 8;
-  const float* data = whole.values.data();
-  FormFactorRows rows = all_rows(std::move(whole));
-  EXPECT_EQ(rows.n, 2u);
-  EXPECT_EQ(rows.row_begin, 0u);
-  EXPECT_EQ(rows.row_end, 2u);
-  EXPECT_EQ(rows.values.data(), data);
-  EXPECT_EQ(rows.params.resolution, 8);
-  const FormFactors back = whole_matrix(std::move(rows));
-  EXPECT_EQ(back.values.data(), data);
-  EXPECT_EQ(back(0, 1), 0.5f);
-  FormFactorRows block;
-  block.n = 2;
-  block.row_begin = 1;
-  block.row_end = 2;
-  EXPECT_THROW(whole_matrix(std::move(block)), std::logic_error);
-}
