@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/files.hpp"
@@ -33,6 +34,9 @@ void require_rows_for_ranks(size_t patches, int ranks);
 // harm (common/files.hpp: no device, FIFO or folder replaced, no input overwritten, no output twice).
 void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
                  const std::vector<hpcgi::files::Output>& inputs);
+
+// --size WIDTHxHEIGHT of a picture, 1..16384 pixels each; hpcgi::UsageError otherwise.
+std::pair<int, int> parse_size(const std::string& s);
 
 struct InfoArgs : SceneArgs {};
 void add_info(CLI::App& app, InfoArgs& a);

@@ -11,15 +11,6 @@
 namespace radiosity::app {
 namespace {
 
-std::pair<int, int> parse_size(const std::string& s) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(s.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || x != 'x' || w < 1 || h < 1 || w > 16384 ||
-      h > 16384)
-    throw hpcgi::UsageError("--size must be WIDTHxHEIGHT with 1..16384 pixels each, got '" + s + "'");
-  return {w, h};
-}
-
 // The files the run reads and writes, the snapshots among them.
 void check_solve_files(const SolveArgs& a, const SolveConfig& cfg) {
   std::vector<hpcgi::files::Output> outputs{{a.output_xml, "--output"}, {a.png, "--png"}};
