@@ -43,7 +43,8 @@ struct ServedFrames {
   std::vector<double> all_ms, basis_ms, solved_ms;
   double worst_error = 0, worst_residual = 0;
   long checked = 0, solved = 0, over_tol = 0;
-  hpcgi::Outcome outcome;  // 4 when a solved frame stopped at --max-iter (not at --frame-budget-ms)
+  hpcgi::Outcome outcome;  // 4 when a solved frame stopped at --max-iter (not at --frame-budget-ms); 3 when one
+                           // failed (NaN, breakdown, divergence, no solution): the frames stop at that one
   nlohmann::json per_frame = nlohmann::json::array();
   std::vector<std::string> pngs;
 };

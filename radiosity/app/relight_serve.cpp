@@ -77,8 +77,13 @@ std::vector<Rgb> solved_frame(const RelightArgs& a, const RelightInputs& in, con
   sys.initial = prev;  // warm start
   bool stopped = false;
   SolveResult res = solve_within_budget(sys, cfg, a.frame_budget_ms * 1e-3, ms, stopped);
-  if (failed(res.status))
-    throw hpcgi::NumericalError("frame " + std::to_string(k) + ": " + to_string(res.status) + ": " + res.detail);
+  if (failed(res.status)) {  // no answer: the frames stop here, the record is still written with exit status 3
+    s.outcome = {hpcgi::kExitNumerical, "frame " + std::to_string(k) + ": " + to_string(res.status) + ": " + res.detail};
+    fr["kind"] = "solved";
+    fr["iterations"] = res.iterations;
+    fr["status"] = to_string(res.status);
+    return {};
+  }
   const double r = *std::max_element(res.rel_residual.begin(), res.rel_residual.end());
   if (!stopped && res.status == SolveStatus::max_iter && s.outcome.status == hpcgi::kExitOk) {
     char why[256];
@@ -136,6 +141,10 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
       s.basis_ms.push_back(ms);
     } else {
       B = solved_frame(a, in, fm, k, check, prev, fr, s, ms);
+      if (s.outcome.status == hpcgi::kExitNumerical) {
+        s.per_frame.push_back(fr);
+        break;
+      }
     }
     fr["ms"] = ms;
     s.all_ms.push_back(ms);

@@ -1,6 +1,6 @@
 // The phases of `bin/radiosity relight` (radiosity/app/relight_*.cpp) on RRV-format facing squares (one light, one
 // reflector): the plan's refusals, the load, frames served from the basis against a cold float64 solve, a solved
-// frame that stops at --max-iter (exit status 4), and the record's tallies against the frames served.
+// frame that stops at --max-iter (exit status 4), a frame with no solution (3), and the record's tallies against the frames served.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -104,6 +104,27 @@ TEST_F(RelightPhases, ASolvedFrameConvergesWarmOrStopsAtMaxIterWithStatus4) {
   EXPECT_EQ(s.outcome.status, hpcgi::kExitNotConverged);
   EXPECT_NE(s.outcome.reason.find("frame 0"), std::string::npos) << s.outcome.reason;
   EXPECT_EQ(s.over_tol, 1);
+}
+
+// The closed box made lossless (reflectivity 1, every face emitting): (I - F) B = E has no solution. The frame ends
+// with exit status 3, the frames stop there, and what was served is still there for the record.
+TEST_F(RelightPhases, AFrameWithNoSolutionStopsTheFramesWithStatus3) {
+  args.scene = scene_test::own_scene("closed_box.xml");
+  args.ff = (tmp.path() / "box.ff").string();
+  args.load.allow_reflectivity_ge_1 = true;
+  HemicubeParams hp;
+  hp.resolution = 32;
+  const Mesh m = load_rrv_scene(args.scene, args.load);
+  save_form_factors(args.ff, m, compute_form_factors(m, hp));
+  args.frames = frames_file(R"({"frames": [{"reflectivity": {"box.1": [1, 1, 1]}}, {}]})");
+  args.cfg.tol = 1e-6;
+  args.check_every = 0;
+  RelightInputs in;
+  const ServedFrames s = serve(in);
+  EXPECT_EQ(s.outcome.status, hpcgi::kExitNumerical);
+  EXPECT_NE(s.outcome.reason.find("no solution"), std::string::npos) << s.outcome.reason;
+  ASSERT_EQ(s.per_frame.size(), 1u);
+  EXPECT_EQ(s.per_frame[0]["status"], "stagnant");
 }
 
 }  // namespace
