@@ -258,8 +258,19 @@ def extreme_outcomes(preset):
     lines = []
     rad = df[df["app"] == "radiosity"]
     box = rad[rad["params.scene"].str.contains("box_rho") & (rad["params.method"] == "jacobi")]
+    def answered(r):  # a run that is no answer (exit 3, 4, 5) has no radiosity to quote: its reason instead
+        return isinstance(r.get("result.radiosity_max"), list)
+
+    def no_answer(r, what):
+        return (f"- {what}: no answer, exit status {int(r.get('result.exit_status', 0))} after "
+                f"{r['result.iterations']} iterations: {r.get('result.exit_reason', r['result.status'])}")
+
     for _, r in box.sort_values(["params.scene", "params.precision"]).iterrows():
         rho = float(Path(r["params.scene"]).stem[len("box_rho"):])
+        if not answered(r):
+            lines.append(no_answer(r, f"closed box rho = {rho:g}, Jacobi in {r['params.precision']} to "
+                                      f"{r['params.tol']:g}"))
+            continue
         b = r["result.radiosity_max"][0]
         lines.append(f"- closed box rho = {rho:g}, Jacobi in {r['params.precision']} to {r['params.tol']:g}: "
                      f"{r['result.status']} after {r['result.iterations']} steps (log(tol)/log(rho) = "
@@ -267,6 +278,9 @@ def extreme_outcomes(preset):
                      f"{1 / (1 - rho):.6g} ({abs(b * (1 - rho) - 1):.2%} off: the hemicube's row sums), "
                      f"{r['result.error_vs_reference']:.2g} from the converged solution of the same F")
     for _, r in rad[~rad["params.scene"].str.contains("box_rho")].iterrows():
+        if not answered(r):
+            lines.append(no_answer(r, f"{Path(r['params.scene']).stem}, {r['params.method']} in {r['params.precision']}"))
+            continue
         lines.append(f"- {Path(r['params.scene']).stem}, {r['params.method']} in {r['params.precision']}: "
                      f"{r['result.status']} after {r['result.iterations']} iterations, B = "
                      f"{r['result.radiosity_min'][0]:.6g} ... {r['result.radiosity_max'][0]:.6g}, "
