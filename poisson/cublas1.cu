@@ -40,11 +40,6 @@ class Cublas1 final : public CublasBase<T> {
 
 }  // namespace
 
-template <class T>
-std::unique_ptr<Kernels<T>> make_cublas1(const Config& cfg) {
-  return std::make_unique<Cublas1<T>>(cfg);
-}
-template std::unique_ptr<Kernels<float>> make_cublas1(const Config&);
-template std::unique_ptr<Kernels<double>> make_cublas1(const Config&);
+POISSON_BACKEND_FACTORY(make_cublas1, Cublas1)
 
 }  // namespace poisson

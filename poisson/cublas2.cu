@@ -29,11 +29,6 @@ class Cublas2 final : public CublasBase<T> {
 
 }  // namespace
 
-template <class T>
-std::unique_ptr<Kernels<T>> make_cublas2(const Config& cfg) {
-  return std::make_unique<Cublas2<T>>(cfg);
-}
-template std::unique_ptr<Kernels<float>> make_cublas2(const Config&);
-template std::unique_ptr<Kernels<double>> make_cublas2(const Config&);
+POISSON_BACKEND_FACTORY(make_cublas2, Cublas2)
 
 }  // namespace poisson

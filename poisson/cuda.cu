@@ -277,11 +277,6 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
 
 }  // namespace
 
-template <class T>
-std::unique_ptr<Kernels<T>> make_cuda(const Config& cfg) {
-  return std::make_unique<Cuda<T>>(cfg);
-}
-template std::unique_ptr<Kernels<float>> make_cuda(const Config&);
-template std::unique_ptr<Kernels<double>> make_cuda(const Config&);
+POISSON_BACKEND_FACTORY(make_cuda, Cuda)
 
 }  // namespace poisson

@@ -57,11 +57,6 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
 
 }  // namespace
 
-template <class T>
-std::unique_ptr<Kernels<T>> make_openmp(const Config& cfg) {
-  return std::make_unique<OpenMP<T>>(cfg);
-}
-template std::unique_ptr<Kernels<float>> make_openmp(const Config&);
-template std::unique_ptr<Kernels<double>> make_openmp(const Config&);
+POISSON_BACKEND_FACTORY(make_openmp, OpenMP)
 
 }  // namespace poisson

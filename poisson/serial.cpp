@@ -216,11 +216,6 @@ class Serial final : public Kernels<T>, public Preconditioned {
 
 }  // namespace
 
-template <class T>
-std::unique_ptr<Kernels<T>> make_serial(const Config& cfg) {
-  return std::make_unique<Serial<T>>(cfg);
-}
-template std::unique_ptr<Kernels<float>> make_serial(const Config&);
-template std::unique_ptr<Kernels<double>> make_serial(const Config&);
+POISSON_BACKEND_FACTORY(make_serial, Serial)
 
 }  // namespace poisson

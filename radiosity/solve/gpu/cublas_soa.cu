@@ -232,20 +232,15 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
   std::vector<std::unique_ptr<hpcgi::DeviceArray<T>>> vec_;
 };
 
+}  // namespace
+
 template <class T>
-std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfig& cfg, int vectors) {
+std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cfg, int vectors) {
   const std::string who = gpu::who("cublas", sys, cfg);
   hpcgi::require_gpu(who);
   if (stride_for(sys.n) > size_t(INT_MAX)) throw hpcgi::UsageError(who + ": too many patches for cuBLAS's int sizes");
   hpcgi::require_device_memory(who, CublasSoa<T>::bytes_needed(sys.n, vectors));
   return std::make_unique<CublasSoa<T>>(sys, cfg.fused, vectors);
-}
-
-}  // namespace
-
-template <class T>
-std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cfg, int vectors) {
-  return build<T>(sys, cfg, vectors);
 }
 template std::unique_ptr<Kernels<float>> make_cublas(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_cublas(const System&, const SolveConfig&, int);

@@ -37,20 +37,15 @@ class CudaAos final : public gpu::DeviceKernels<T> {
   gpu::AosDevice<T> dev_;
 };
 
+}  // namespace
+
 template <class T>
-std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfig& cfg, int vectors) {
+std::unique_ptr<Kernels<T>> make_cuda(const System& sys, const SolveConfig& cfg, int vectors) {
   if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (its product is one pass over F already)");
   const std::string who = gpu::who("cuda", sys, cfg);
   hpcgi::require_gpu(who);
   hpcgi::require_device_memory(who, gpu::AosDevice<T>::bytes_needed(sys.n, sys.n, vectors));
   return std::make_unique<CudaAos<T>>(sys, vectors);
-}
-
-}  // namespace
-
-template <class T>
-std::unique_ptr<Kernels<T>> make_cuda(const System& sys, const SolveConfig& cfg, int vectors) {
-  return build<T>(sys, cfg, vectors);
 }
 template std::unique_ptr<Kernels<float>> make_cuda(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_cuda(const System&, const SolveConfig&, int);

@@ -165,8 +165,10 @@ void check_distribution(double d) {
   }
 }
 
+}  // namespace
+
 template <class T>
-std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfig& cfg, int vectors) {
+std::unique_ptr<Kernels<T>> make_hybrid(const System& sys, const SolveConfig& cfg, int vectors) {
   if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (hybrid runs backend cuda's kernels)");
   check_distribution(cfg.distribution);
   const std::string who = gpu::who("hybrid", sys, cfg);
@@ -175,13 +177,6 @@ std::unique_ptr<gpu::DeviceKernels<T>> build(const System& sys, const SolveConfi
   hpcgi::require_device_memory(who + " with " + std::to_string(g) + " rows on the GPU",
                                gpu::AosDevice<T>::bytes_needed(sys.n, g, vectors));
   return std::make_unique<Hybrid<T>>(sys, g, cfg.overlap, cfg.threads, vectors);
-}
-
-}  // namespace
-
-template <class T>
-std::unique_ptr<Kernels<T>> make_hybrid(const System& sys, const SolveConfig& cfg, int vectors) {
-  return build<T>(sys, cfg, vectors);
 }
 template std::unique_ptr<Kernels<float>> make_hybrid(const System&, const SolveConfig&, int);
 template std::unique_ptr<Kernels<double>> make_hybrid(const System&, const SolveConfig&, int);
