@@ -158,8 +158,23 @@ def threads_note(df):
     th = sorted(set(df["params.threads"].dropna().astype(int)))
     hosts = sorted(set(df["provenance.host"]))
     note = df.attrs.get("no_answer", "")
-    return (f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s)."
-            + (f" {note}" if note else ""))
+    parts = [f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s).",
+             storage_note(df), note]
+    return " ".join(p for p in parts if p)
+
+
+def storage_note(df):
+    """Which storage of F the runs read (issue 17): the case lists pin the report's dense float32, so that a table
+    compares the work the report did. Nothing for records without F (Poisson's)."""
+    if df.empty or "params.storage" not in df:
+        return ""
+    values = df["params.ff_precision"] if "params.ff_precision" in df else pd.Series("float32", index=df.index)
+    used = (df["params.storage"].fillna("dense") + " " + values.fillna("float32")).value_counts()
+    if list(used.index) == ["dense float32"]:
+        return ("F as the report stored it, dense float32, in every run (the case lists pin `--storage dense`; "
+                "the default `--storage auto` would read a sparse storage where F has many zeros: README, "
+                "\"Sparse form factors\" in section Speed against accuracy).")
+    return "F read as " + ", ".join(f"{k} ({v} runs)" for k, v in used.items()) + "."
 
 
 def aos_soa(name, preset, layout, columns, extra=()):
