@@ -10,6 +10,7 @@
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/half.hpp"
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -29,15 +30,7 @@ Problem sparse_problem(size_t n, unsigned seed, double zero_share) {
 
 SolveConfig config(const std::string& backend, const std::string& layout, const std::string& method,
                    const std::string& precision, long steps) {
-  SolveConfig c;
-  c.backend = backend;
-  c.layout = layout;
-  c.method = method;
-  c.precision = precision;
-  c.steps = steps;
-  c.tol = precision == "float" ? 1e-6 : 1e-12;
-  c.threads = 2;
-  return c;
+  return solve_config(backend, layout, method, precision, steps);
 }
 
 // The same system with its F held as `opt` says (the matrix must outlive the system).
