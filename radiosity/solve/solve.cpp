@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "common/cli.hpp"
 #include "common/errors.hpp"
@@ -97,10 +98,10 @@ bool failed(SolveStatus s) {
 #endif
 
 const std::vector<SolveBackend>& solve_backends() {
-  const std::vector<Method> kAll = {Method::jacobi, Method::bicgstab, Method::gauss_seidel, Method::sor},
-                            kJacobiBicgstab = {Method::jacobi, Method::bicgstab};
-  const std::vector<Layout> kAosSoa = {Layout::aos, Layout::soa};
-  const std::vector<Precision> kBoth = {Precision::single, Precision::double_};
+  static const std::vector<Method> kAll = {Method::jacobi, Method::bicgstab, Method::gauss_seidel, Method::sor},
+                                   kJacobiBicgstab = {Method::jacobi, Method::bicgstab};
+  static const std::vector<Layout> kAosSoa = {Layout::aos, Layout::soa};
+  static const std::vector<Precision> kBoth = {Precision::single, Precision::double_};
   static const std::vector<SolveBackend> list = {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
        {Method::jacobi}, {Layout::aos}, {Precision::single}, false, true, "", run_original},
@@ -166,7 +167,11 @@ void check_config(const SolveConfig& cfg) {
     if (!b->tolerance)
       throw hpcgi::UsageError("backend '" + b->name + "' runs a fixed number of steps (RRV has no tolerance); " +
                               "give steps (RRV's default is 32)");
-    if (!(cfg.tol > 0 && std::isfinite(cfg.tol))) throw hpcgi::UsageError("tol must be a positive number");
+    if (!(cfg.tol > 0 && std::isfinite(cfg.tol))) {
+      char why[96];
+      std::snprintf(why, sizeof why, "--tol %g: a tolerance must be a finite number > 0", cfg.tol);
+      throw hpcgi::UsageError(why);
+    }
     hpcgi::check_tolerance(cfg.tol, to_string(cfg.precision));  // below 1, and reachable in the precision
     if (cfg.max_iter < 1) throw hpcgi::UsageError("max_iter must be >= 1");
   }

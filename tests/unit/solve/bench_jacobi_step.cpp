@@ -54,7 +54,7 @@ double step_seconds(const System& sys, const std::string& backend, const std::st
   SolveConfig c;
   c.backend = backend;
   c.layout = parse_layout(layout);
-  c.precision = parse_precision("float");
+  c.precision = Precision::single;
   c.steps = steps;
   c.threads = kThreads;
   double best = 1e30;

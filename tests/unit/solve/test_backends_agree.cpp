@@ -71,7 +71,7 @@ TEST(BackendsAgree, OriginalDropsFormFactorsAtOrBelowTheThreshold) {
   const float threshold = p.F[1];  // a value that is present, so "at" the threshold is exercised too
   SolveConfig c;
   c.backend = "original";
-  c.precision = parse_precision("float");
+  c.precision = Precision::single;
   c.steps = 16;
   c.ff_threshold = threshold;
   const SolveResult orig = solve(p.sys, c);

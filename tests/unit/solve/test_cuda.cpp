@@ -160,7 +160,7 @@ TEST(CudaBackends, EveryKernelAgreesWithSerial) {
     const SolveConfig c = config(g, "jacobi", sizeof(T) == 4 ? "float" : "double", 0);
     const std::unique_ptr<Kernels<T>> k = make(p.sys, c, 4);
     SolveConfig sc = c;
-    sc.layout = parse_layout("aos");
+    sc.layout = Layout::aos;
     const std::unique_ptr<Kernels<T>> s = make_serial<T>(p.sys, sc, 4);
     std::vector<Rgb> got, want;
     auto same = [&](int v, const char* what) {

@@ -37,7 +37,7 @@ TEST(Extremes, ClosedBoxConvergesToEOverOneMinusRhoWithinTheTolerance) {
     SCOPED_TRACE(rho);
     const Problem p = uniform_room(rho, 1.0);
     SolveConfig c;
-    c.precision = parse_precision("double");
+    c.precision = Precision::double_;
     c.tol = tol;
     c.max_iter = 200000;
     const SolveResult r = solve(p.sys, c);
@@ -53,8 +53,8 @@ TEST(Extremes, ClosedBoxConvergesToEOverOneMinusRhoWithinTheTolerance) {
 TEST(Extremes, BicgstabSolvesTheNearlyLosslessBoxInAFewIterations) {
   const Problem p = uniform_room(0.9999, 1.0);
   SolveConfig c;
-  c.method = parse_method("bicgstab");
-  c.precision = parse_precision("double");
+  c.method = Method::bicgstab;
+  c.precision = Precision::double_;
   c.tol = 1e-10;
   const SolveResult r = solve(p.sys, c);
   ASSERT_EQ(r.status, SolveStatus::converged) << r.detail;

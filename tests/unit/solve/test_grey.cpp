@@ -34,7 +34,7 @@ TEST(Grey, GreySystemsSolveOneChannelWithTheAnswerOfThree) {
                        std::to_string(steps));
           SolveConfig c = solve_config(backend, layout, method, precision, steps, 3);
           const SolveResult one = solve(p.sys, c);
-          c.channels = parse_channels("3");
+          c.channels = Channels::three;
           const SolveResult three = solve(p.sys, c);
           EXPECT_EQ(one.channels, 1);
           EXPECT_EQ(three.channels, 3);

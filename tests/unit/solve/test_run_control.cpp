@@ -59,7 +59,7 @@ TEST(RunControl, ToleranceRunsCallBackEveryIterationAndStopAtTheFirstThatMeetsIt
   for (const char* method : {"jacobi", "bicgstab"}) {
     SCOPED_TRACE(method);
     SolveConfig c = config("serial", method, 0);
-    c.precision = parse_precision("double");
+    c.precision = Precision::double_;
     c.tol = 1e-9;
     long calls = 0;
     const SolveResult r = solve(p.sys, c, [&](long, const std::vector<Rgb>&) { ++calls; });
@@ -77,10 +77,10 @@ TEST(RunControl, ToleranceRunsCallBackEveryIterationAndStopAtTheFirstThatMeetsIt
 TEST(RunControl, BicgstabNeedsFewerIterationsThanJacobiForRhoNearOne) {
   const Problem p = random_problem(100, 57, 0.88, 0.9, 0.995);
   SolveConfig c = config("serial", "jacobi", 0);
-  c.precision = parse_precision("double");
+  c.precision = Precision::double_;
   c.tol = 1e-8;
   const SolveResult j = solve(p.sys, c);
-  c.method = parse_method("bicgstab");
+  c.method = Method::bicgstab;
   const SolveResult b = solve(p.sys, c);
   ASSERT_EQ(j.status, SolveStatus::converged);
   ASSERT_EQ(b.status, SolveStatus::converged);
@@ -122,7 +122,7 @@ TEST(RunControl, BicgstabReportsBreakdown) {
   s.reflectivity = {{1, 1, 1}, {1, 1, 1}};
   s.initial = {{0, 0, 0}, {0, 0, 0}};
   SolveConfig c = config("serial", "bicgstab", 0);
-  c.precision = parse_precision("double");
+  c.precision = Precision::double_;
   const SolveResult r = solve(s, c);
   EXPECT_EQ(r.status, SolveStatus::breakdown);
   EXPECT_NE(r.detail.find("r^.v"), std::string::npos) << r.detail;
@@ -140,13 +140,13 @@ TEST(RunControl, UnsupportedCombinationsAreRefused) {
     }
   };
   SolveConfig c = config("original", "jacobi", 32);
-  c.method = parse_method("bicgstab");
+  c.method = Method::bicgstab;
   refused(c, "does not run method 'bicgstab'");
   c = config("original", "jacobi", 32);
-  c.layout = parse_layout("soa");
+  c.layout = Layout::soa;
   refused(c, "does not run layout 'soa'");
   c = config("original", "jacobi", 32);
-  c.precision = parse_precision("double");
+  c.precision = Precision::double_;
   refused(c, "does not run precision 'double'");
   refused(config("original", "jacobi", 0), "fixed number of steps");
   refused(config("serial", "bicgstab", 32), "fixed step count is for jacobi");

@@ -79,11 +79,7 @@ TEST(Sparse, EveryStorageGivesTheDenseAnswer) {
                                               {"gauss-seidel", 0L}}) {
             SCOPED_TRACE(std::string(to_string(st)) + " " + backend + " " + layout + " " + precision + " " + method +
                          " " + std::to_string(steps));
-            const SolveConfig c = config(backend, layout, precision, steps, 2, method);
-            const SolveResult dense = solve(p.sys, c), sparse = solve(s, c);
-            EXPECT_EQ(sparse.status, dense.status);
-            EXPECT_LE(rel_diff(sparse.B, dense.B), 1e-6);
-            EXPECT_EQ(sparse.matrix_bytes, m.bytes());
+            expect_storage_agrees(p.sys, s, config(backend, layout, precision, steps, 2, method), m.bytes());
           }
   }
 }

@@ -112,7 +112,7 @@ TEST(StopRules, ClosedBoxJacobiMatchesEveryRulesClosedForm) {
   for (const std::string& rule : every_rule()) {
     SCOPED_TRACE(rule);
     SolveConfig c = config("jacobi", rule, "double");
-    c.start = parse_start("zero");
+    c.start = Start::zero;
     const SolveResult r = solve(p.sys, c);
     ASSERT_EQ(r.status, SolveStatus::converged) << r.detail;
     EXPECT_EQ(r.iterations, closed_form_count(rule, rho, E, c.tol));
@@ -159,7 +159,7 @@ TEST(StopRules, StartVectors) {
     c.start = parse_start(start);
     c.steps = 1;  // b_1 = e + ρ F b_0
     const SolveResult r = solve(p.sys, c);
-    const std::vector<Rgb> b0 = start_vector(p.sys, start);
+    const std::vector<Rgb> b0 = start_vector(p.sys, c.start);
     for (size_t i = 0; i < p.sys.n; ++i)
       for (int ch = 0; ch < 3; ++ch) {
         double s = 0;
@@ -171,6 +171,6 @@ TEST(StopRules, StartVectors) {
     for (const Rgb& b : b0) inf = std::max(inf, b[0]);
     EXPECT_DOUBLE_EQ(r.history.at(0).b_inf[0], inf);
   }
-  EXPECT_EQ(start_vector(p.sys, "zero")[3], (Rgb{0, 0, 0}));
-  EXPECT_EQ(start_vector(p.sys, "emission"), p.sys.emission);
+  EXPECT_EQ(start_vector(p.sys, Start::zero)[3], (Rgb{0, 0, 0}));
+  EXPECT_EQ(start_vector(p.sys, Start::emission), p.sys.emission);
 }
