@@ -23,9 +23,10 @@ void add_method_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
              "jacobi | bicgstab | gauss-seidel (sweeps in patch order; openmp: each thread its block of rows, "
              "Jacobi between blocks) | sor (gauss-seidel relaxed by --omega)");
   cmd->add_option("--omega", a.cfg.omega, "sor: the relaxation factor W in (0, 2) (1: gauss-seidel)")
-                ->capture_default_str();
+      ->capture_default_str();
   std::string rules;
   for (const std::string& r : stop_rule_bases()) rules += (rules.empty() ? "" : " | ") + r;
+  // Parsed once here; an unknown rule is a parse error of CLI11's (one line, exit status 2) like any other.
   const auto stop = [&a](const std::string& s) {
     try {
       a.cfg.stop = parse_stop_rule(s);

@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <vector>
 
-#include "common/cli.hpp"
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/files.hpp"
