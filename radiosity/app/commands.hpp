@@ -35,6 +35,19 @@ void require_rows_for_ranks(size_t patches, int ranks);
 void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
                  const std::vector<hpcgi::files::Output>& inputs);
 
+// An option whose value is one of a SolveConfig choice's names (radiosity/solve/choices.hpp; `only` those of them
+// where given): CLI11 checks the name, its callback parses it into `value`, once; --help shows the default's name.
+template <class E>
+CLI::Option* add_choice(CLI::App* cmd, const std::string& flag, E& value, E (*parse)(const std::string&),
+                        const std::string& help, const std::vector<E>& only = {}) {
+  std::vector<std::string> names;
+  for (E e : only) names.push_back(to_string(e));
+  if (only.empty()) names = choice_names<E>();
+  return cmd->add_option_function<std::string>(flag, [&value, parse](const std::string& s) { value = parse(s); }, help)
+      ->check(CLI::IsMember(names))
+      ->default_str(to_string(value));
+}
+
 // --size WIDTHxHEIGHT of a picture, 1..16384 pixels each; hpcgi::UsageError otherwise.
 std::pair<int, int> parse_size(const std::string& s);
 

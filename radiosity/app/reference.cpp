@@ -12,15 +12,15 @@ ErrorReference converged_reference(const System& sys, const std::string& of) {
   hpcgi::Timer t;
   SolveConfig cfg;
   cfg.backend = holds_all_rows(sys) ? "openmp" : "mpi";  // an MPI rank's system is solved by the same ranks
-  cfg.layout = "aos";
-  cfg.precision = "double";
-  cfg.method = "bicgstab";
+  cfg.layout = Layout::aos;
+  cfg.precision = Precision::double_;
+  cfg.method = Method::bicgstab;
   cfg.tol = kReferenceTol;
   cfg.max_iter = 10000;
   SolveResult r = solve(sys, cfg);
   if (r.status != SolveStatus::converged) {
     SolveConfig jac = cfg;
-    jac.method = "jacobi";
+    jac.method = Method::jacobi;
     jac.max_iter = 100000;
     SolveResult rj = solve(sys, jac);
     // Keep whichever got closer (Jacobi may stop divergent or nonfinite where BiCG-STAB at least got somewhere).
@@ -32,7 +32,7 @@ ErrorReference converged_reference(const System& sys, const std::string& of) {
   }
   ErrorReference ref;
   ref.of = of;
-  ref.method = cfg.method;
+  ref.method = to_string(cfg.method);
   ref.iterations = r.iterations;
   ref.max_rel_residual = *std::max_element(r.rel_residual.begin(), r.rel_residual.end());
   ref.converged = r.status == SolveStatus::converged;

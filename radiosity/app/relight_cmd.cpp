@@ -114,16 +114,14 @@ void add_relight(CLI::App& app, RelightArgs& a) {
                   "else solved and written there");
   cmd->add_option("--basis-tol", a.basis_tol, "relative residual every light's solve reaches (Jacobi, float64)")
       ->check(hpcgi::positive_finite())->capture_default_str();
-  cmd->add_option("--method", a.cfg.method, "reflectivity frames: jacobi | bicgstab")
-      ->check(CLI::IsMember({"jacobi", "bicgstab"}))->capture_default_str();
+  add_choice(cmd, "--method", a.cfg.method, parse_method, "reflectivity frames: jacobi | bicgstab",
+             {Method::jacobi, Method::bicgstab});
   cmd->add_option("--backend", a.cfg.backend, "reflectivity frames: a backend of `solve`")->capture_default_str();
-  cmd->add_option("--precision", a.cfg.precision, "reflectivity frames: float | double")
-      ->check(CLI::IsMember({"float", "double"}))->capture_default_str();
+  add_choice(cmd, "--precision", a.cfg.precision, parse_precision, "reflectivity frames: float | double");
   cmd->add_option("--ff-precision", a.ff_precision, "reflectivity frames: F stored as float32 | float16 | bfloat16")
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
   a.cfg.tol = 1e-4;
-  cmd->add_option("--tol", a.cfg.tol, "reflectivity frames: stop at this relative residual")
-      ->check(hpcgi::positive_finite())->capture_default_str();
+  cmd->add_option("--tol", a.cfg.tol, "reflectivity frames: stop at this relative residual")->capture_default_str();
   cmd->add_option("--max-iter", a.cfg.max_iter, "reflectivity frames: iteration limit")->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--frame-budget-ms", a.frame_budget_ms,

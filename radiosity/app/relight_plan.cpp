@@ -15,11 +15,10 @@ RelightPlan plan_relight(const RelightArgs& a) {
   RelightPlan p;
   std::tie(p.width, p.height) = parse_size(a.size);
   p.values = parse_ff_values(a.ff_precision);
-  // The reflectivity frames' backend is checked before anything is read or written (solve() checks the rest).
-  const SolveBackend& backend = require_backend(a.cfg.backend);
-  if (!backend.any_storage && p.values != FFValues::float32)
-    throw hpcgi::UsageError("backend '" + backend.name + "' reads dense float32 form factors only: --ff-precision "
-                            "float16|bfloat16 runs on serial and openmp");
+  // The reflectivity frames' configuration and the storage their backend reads are checked before anything is read
+  // or written, by the library's rules (solve.hpp: check_config, require_storage).
+  check_config(a.cfg);
+  require_storage(require_backend(a.cfg.backend), FFStorage::dense, p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.
   check_files(a, {{a.basis, "--basis"}}, {{a.ff, "--ff"}, {a.frames, "--frames"}});
   return p;

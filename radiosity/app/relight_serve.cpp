@@ -88,7 +88,7 @@ std::vector<Rgb> solved_frame(const RelightArgs& a, const RelightInputs& in, con
   if (!stopped && res.status == SolveStatus::max_iter && s.outcome.status == hpcgi::kExitOk) {
     char why[256];
     std::snprintf(why, sizeof why, "frame %zu: %s stopped at --max-iter %ld with the largest relative residual "
-                  "%.3e, above --tol %.1e", k, cfg.method.c_str(), cfg.max_iter, r, cfg.tol);
+                  "%.3e, above --tol %.1e", k, to_string(cfg.method).c_str(), cfg.max_iter, r, cfg.tol);
     s.outcome = {hpcgi::kExitNotConverged, why};
   }
   fr["kind"] = "solved";

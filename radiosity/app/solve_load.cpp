@@ -166,8 +166,8 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
   L.sys.stored = L.matrix->view();
 }
 
-// The run's form factors: threshold, storage and precision. The default error reference is solved on the
-// file's values before they are thresholded or rounded (or after the run, when they are not).
+// The run's form factors: threshold, storage and precision (the error reference before they are rounded, where
+// it is due then: solve_reference_at).
 void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   hpcgi::Timer t;
   bool dropped = false;
@@ -176,12 +176,10 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   const bool as_file = L.storage == FFStorage::dense && p.values == FFValues::float32;
   // A sparse file's values are the run's: its reference is solved on them.
   L.same_matrix = !L.have_ref && (L.sparse_file || (p.values == FFValues::float32 && !dropped));
-  double ref_in_build_s = 0;  // the reference solved here is no part of building the run's form factors
-  if (a.verify && !L.have_ref && !L.same_matrix) {
-    L.ref = reference_before_rounding(L.sys);
-    ref_in_build_s = L.ref.seconds;
-    L.have_ref = true;
-  }
+  const bool had_ref = L.have_ref;
+  solve_reference_at(ReferencePoint::before_rounding, a, L);
+  // A reference solved here is no part of building the run's form factors.
+  const double ref_in_build_s = L.have_ref && !had_ref ? L.ref.seconds : 0;
   L.matrix_storage_bytes = 4 * L.n2;  // all ranks together
   if (as_file) {
     if (dropped) apply_threshold(L.ff.values.data(), L.n, a.threshold, L.block.rows());
@@ -213,12 +211,7 @@ double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * doubl
 
 void load_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   load_mesh(a, p, L);
-  // The error reference from other form factors (a finer hemicube or mesh), solved and freed before the run's
-  // own form factors are loaded, so that the two never take memory at once.
-  if (a.verify && !a.reference_ff.empty()) {
-    L.ref = reference_from_file(a, L.m);
-    L.have_ref = true;
-  }
+  solve_reference_at(ReferencePoint::before_form_factors, a, L);  // --reference-ff's, freed before ours are read
   read_file_info(a, p, L);
   check_memory(a, p, L);
   read_form_factors(a, p, L);

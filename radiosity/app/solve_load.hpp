@@ -1,8 +1,8 @@
 // Phase 2 of `bin/radiosity solve` (solve_cmd.cpp): the load. The scene, its mesh, the form factors of --ff in the
 // one block-of-rows type (FormFactorRows: every row, or an MPI rank's block; a sparse file as its matrix), the
 // matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. The
-// error reference is solved here where it must be solved before the values it needs are gone (--reference-ff before
-// the run's own form factors are read; the file's values before they are thresholded or rounded: solve_verify.hpp).
+// load asks solve_reference_at (solve_verify.hpp) at the two points where the error reference may be due before
+// the run: before the run's own form factors are read, and before the file's values are thresholded or rounded.
 #pragma once
 #include <memory>
 #include <string>

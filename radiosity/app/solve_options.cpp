@@ -14,45 +14,50 @@ std::string backend_list() {
 
 // The options given, whose combinations the callback checks.
 struct GivenOptions {
-  CLI::Option *layout, *fused, *distribution, *overlap, *omega, *stop;
+  CLI::Option *layout, *fused, *distribution, *overlap, *stop;
 };
 
 // The method and when it stops.
 void add_method_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
-  cmd->add_option("--method", a.cfg.method,
-                  "jacobi | bicgstab | gauss-seidel (sweeps in patch order; openmp: each thread its block of rows, "
-                  "Jacobi between blocks) | sor (gauss-seidel relaxed by --omega)")
-      ->check(CLI::IsMember({"jacobi", "bicgstab", "gauss-seidel", "sor"}))->capture_default_str();
-  g.omega = cmd->add_option("--omega", a.cfg.omega, "sor: the relaxation factor W in (0, 2) (1: gauss-seidel)")
-                ->capture_default_str();
+  add_choice(cmd, "--method", a.cfg.method, parse_method,
+             "jacobi | bicgstab | gauss-seidel (sweeps in patch order; openmp: each thread its block of rows, "
+             "Jacobi between blocks) | sor (gauss-seidel relaxed by --omega)");
+  cmd->add_option("--omega", a.cfg.omega, "sor: the relaxation factor W in (0, 2) (1: gauss-seidel)")
+      ->capture_default_str();
   std::string rules;
   for (const std::string& r : stop_rule_bases()) rules += (rules.empty() ? "" : " | ") + r;
-  g.stop = cmd->add_option("--stop", a.cfg.stop,
+  // Parsed once here; an unknown rule is a parse error of CLI11's (one line, exit status 2) like any other.
+  const auto stop = [&a](const std::string& s) {
+    try {
+      a.cfg.stop = parse_stop_rule(s);
+    } catch (const hpcgi::UsageError& e) {
+      throw CLI::ValidationError("--stop", e.what());
+    }
+  };
+  g.stop = cmd->add_option_function<std::string>(
+                  "--stop", stop,
                   "stopping rule with --tol: " + rules + " (residual: ||e - A b|| over ||e||, ||r0||, ||b||; step: "
                   "||b_k - b_k-1|| over ||b_k||, 2- or inf-norm), each +stacked (the channels as one vector, not the "
                   "largest channel) and/or +squared (the value squared)")
-      ->capture_default_str();
-  cmd->add_option("--start", a.cfg.start, "b_0: rrv (max(radiosity, emission), RRV's) | zero | emission")
-      ->check(CLI::IsMember({"rrv", "zero", "emission"}))->capture_default_str();
+               ->default_str(to_string(a.cfg.stop));
+  add_choice(cmd, "--start", a.cfg.start, parse_start, "b_0: rrv (max(radiosity, emission), RRV's) | zero | emission");
   cmd->add_flag("--history", a.cfg.history,
                 "record every iterate's residuals and steps (result.history; O(n) per iteration)");
   auto* steps = cmd->add_option("--steps", a.cfg.steps, "exactly K Jacobi (Gauss-Seidel, SOR) steps (RRV: 32), no tolerance")
                     ->check(hpcgi::integer_in(1, 1LL << 40));
   cmd->add_option("--tol", a.cfg.tol, "stop when the stopping rule (--stop; default: every channel's ||e - A b|| / ||e||) is <= tol")
-      ->check(hpcgi::positive_finite())->capture_default_str()->excludes(steps);
+      ->capture_default_str()->excludes(steps);
   cmd->add_option("--max-iter", a.cfg.max_iter, "iteration limit with --tol")->check(hpcgi::integer_in(1, 1LL << 40))
       ->capture_default_str();
 }
 
 // Where and in what it runs: layout, backend, precision, the form factors' storage and values, the channels.
 void add_machine_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
-  g.layout = cmd->add_option("--layout", a.cfg.layout,
-                             "aos (one r,g,b record per patch) | soa (one array per channel); default: aos, or the "
-                             "one layout a backend runs (cublas: soa)")
-                 ->check(CLI::IsMember({"aos", "soa"}))->capture_default_str();
+  g.layout = add_choice(cmd, "--layout", a.cfg.layout, parse_layout,
+                        "aos (one r,g,b record per patch) | soa (one array per channel); default: aos, or the one "
+                        "layout a backend runs (cublas: soa)");
   cmd->add_option("--backend", a.cfg.backend, backend_list())->capture_default_str();
-  cmd->add_option("--precision", a.cfg.precision, "working precision of B and of the sums: float | double")
-      ->check(CLI::IsMember({"float", "double"}))->capture_default_str();
+  add_choice(cmd, "--precision", a.cfg.precision, parse_precision, "working precision of B and of the sums: float | double");
   cmd->add_option("--storage", a.storage,
                   "form factors held as auto (of those the backend reads, the one that moves the fewest bytes per "
                   "step) | dense (n x n) | csr (only the kept F_ij: values and int32 columns) | compressed (csr with "
@@ -64,9 +69,8 @@ void add_machine_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
   cmd->add_option("--threshold", a.threshold, "drop the form factors with |F_ij| <= T when loading them")
       ->check(hpcgi::fraction_below_one())->capture_default_str();
-  cmd->add_option("--channels", a.cfg.channels,
-                  "auto (a grey scene, r = g = b everywhere, is solved as one channel on serial and openmp) | 3")
-      ->check(CLI::IsMember({"auto", "3"}))->capture_default_str();
+  add_choice(cmd, "--channels", a.cfg.channels, parse_channels,
+             "auto (a grey scene, r = g = b everywhere, is solved as one channel on serial and openmp) | 3");
 }
 
 // The error reference.
@@ -106,10 +110,9 @@ void add_output_options(CLI::App* cmd, SolveArgs& a) {
   cmd->add_flag("!--no-verify", a.verify, "skip the check against the float64 reference and the error reference");
 }
 
-// The rules on which options were given (CLI11 sees what was given; the plan, solve_plan.cpp, sees the rest).
+// The rules on which options were given (CLI11 sees what was given; the plan, solve_plan.cpp, and the library's
+// check_config see the values).
 void check_given(SolveArgs& a, const GivenOptions& g) {
-  if (g.omega->count() > 0 && a.cfg.method != "sor")
-    throw CLI::ValidationError("--omega applies to --method sor, not " + a.cfg.method);
   if (g.stop->count() > 0 && a.cfg.steps > 0)
     throw CLI::ValidationError("--stop is a rule for --tol; --steps runs a fixed number of steps");
   if (a.reference_divide > 0 && a.reference_ff.empty())

@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <vector>
 
-#include "common/cli.hpp"
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/files.hpp"
@@ -30,9 +29,7 @@ void check_backend_reads(const SolveArgs& a, const SolvePlan& p) {
   if (b.distributed && !a.reference_ff.empty())
     throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
                             "--ff (solve the finer mesh with serial or openmp)");
-  if (!b.any_storage && ((p.storage && *p.storage != FFStorage::dense) || p.values != FFValues::float32))
-    throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only: --storage " +
-                            "csr|compressed and --ff-precision float16|bfloat16 run on serial and openmp");
+  require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
 }
 
 }  // namespace
@@ -58,9 +55,8 @@ SolvePlan plan_solve(const SolveArgs& a) {
     if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
     p.limit = a.memory_limit();
     check_solve_files(a, p.cfg);
-    if (p.cfg.steps == 0) hpcgi::check_tolerance(p.cfg.tol, p.cfg.precision);
     check_backend_reads(a, p);
-    check_config(p.cfg);
+    check_config(p.cfg);  // the library's rules (solve.hpp): what the backend runs, the tolerance, omega, ...
   });
   p.dist = p.backend->distributed;
   return p;

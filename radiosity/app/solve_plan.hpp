@@ -2,7 +2,8 @@
 // about what was asked is checked here once, on every MPI rank alike, before anything is read: the options'
 // combinations that CLI11 cannot see (solve_options.cpp checks those that depend on which options were given),
 // the files, the picture, the snapshots, the backend and its configuration (the library's check_config, the
-// one statement of what a backend runs) and what the backend reads. A sparse form-factor file's own rules are
+// one statement of what a backend runs, of the tolerance and of omega) and what the backend reads (the library's
+// require_storage). A sparse form-factor file's own rules are
 // checked when its header is read (plan_sparse_file, called by the load).
 #pragma once
 #include <optional>

@@ -25,15 +25,15 @@ json params_json(const SolveReport& r) {
           {"scene", a.scene},
           {"patches", r.L.m.size()},
           {"divide", a.load.divide},
-          {"method", cfg.method},
-          {"layout", cfg.layout},
+          {"method", to_string(cfg.method)},
+          {"layout", to_string(cfg.layout)},
           {"backend", cfg.backend},
-          {"precision", cfg.precision},
+          {"precision", to_string(cfg.precision)},
           {"steps", cfg.steps},
           {"tol", or_null(!fixed, cfg.tol)},
-          {"stop", or_null(!fixed, cfg.stop)},
-          {"start", cfg.start},
-          {"omega", or_null(cfg.method == "sor", cfg.omega)},
+          {"stop", or_null(!fixed, to_string(cfg.stop))},
+          {"start", to_string(cfg.start)},
+          {"omega", or_null(cfg.method == Method::sor, cfg.omega)},
           {"history", cfg.history},
           {"max_iter", cfg.max_iter},
           {"threads", r.run.res.threads},
@@ -45,7 +45,7 @@ json params_json(const SolveReport& r) {
           {"storage_requested", a.storage},
           {"ff_precision", to_string(r.p.values)},
           {"threshold", a.threshold},
-          {"channels", cfg.channels},
+          {"channels", to_string(cfg.channels)},
           {"reference_ff", or_null(!a.reference_ff.empty(), a.reference_ff)},
           {"reference_divide", or_null(a.reference_divide > 0, a.reference_divide)},
           {"fused", or_null(cfg.backend == "cublas", cfg.fused)},
@@ -187,8 +187,8 @@ json solve_record(const SolveReport& r) {
 }
 
 json history_json(const SolveResult& res, const SolveConfig& cfg) {
-  json h = {{"rule", cfg.stop}, {"e2", res.e2}, {"r0_2", res.r0_2}};
-  const StopRule rule = parse_stop_rule(cfg.stop);
+  json h = {{"rule", to_string(cfg.stop)}, {"e2", res.e2}, {"r0_2", res.r0_2}};
+  const StopRule& rule = cfg.stop;
   const StopRule measures[] = {parse_stop_rule("residual-e"), parse_stop_rule("residual-e+stacked"),
                                parse_stop_rule("step-2"), parse_stop_rule("step-2+stacked"),
                                parse_stop_rule("step-inf"), parse_stop_rule("step-inf+stacked")};
@@ -222,15 +222,17 @@ void print_summary(const SolveReport& r) {
   const LoadedSolve& L = r.L;
   const SolveResult& res = r.run.res;
   std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), L.m.size(),
-              cfg.method.c_str(), cfg.layout.c_str(), cfg.backend.c_str(), cfg.precision.c_str(), res.threads,
+              to_string(cfg.method).c_str(), to_string(cfg.layout).c_str(), cfg.backend.c_str(),
+              to_string(cfg.precision).c_str(), res.threads,
               res.channels, res.channels == 1 ? " (grey scene)" : "s");
   std::printf("  form factors: %s%s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
               to_string(L.storage), !r.p.storage ? " (auto: the fewest bytes per step)" : "",
               to_string(r.p.values), a.threshold, L.kept, L.n2, 100.0 * double(L.kept) / L.n2,
               L.matrix_storage_bytes / 1e6, L.skipped_rows);
-  if (cfg.stop != "residual-e" || cfg.start != "rrv" || cfg.method == "sor")
-    std::printf("  stopping rule %s, start %s%s\n", cfg.steps > 0 ? "(fixed steps)" : cfg.stop.c_str(),
-                cfg.start.c_str(), cfg.method == "sor" ? (", omega " + std::to_string(cfg.omega)).c_str() : "");
+  const bool sor = cfg.method == Method::sor;
+  if (cfg.stop != StopRule{} || cfg.start != Start::rrv || sor)
+    std::printf("  stopping rule %s, start %s%s\n", cfg.steps > 0 ? "(fixed steps)" : to_string(cfg.stop).c_str(),
+                to_string(cfg.start).c_str(), sor ? (", omega " + std::to_string(cfg.omega)).c_str() : "");
   std::printf("  status %s after %ld iterations: relative residual r %.3e g %.3e b %.3e\n", to_string(res.status),
               res.iterations, res.rel_residual[0], res.rel_residual[1], res.rel_residual[2]);
   if (!res.detail.empty()) std::printf("  %s\n", res.detail.c_str());

@@ -18,12 +18,12 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
   if (cfg.steps > 0) {
     SolveConfig ref = cfg;
     ref.backend = holds_all_rows(sys) ? "openmp" : "mpi";  // an MPI rank's system: the same ranks check it
-    ref.layout = "aos";
-    ref.precision = "double";
-    ref.channels = "3";
+    ref.layout = Layout::aos;
+    ref.precision = Precision::double_;
+    ref.channels = Channels::three;
     ref.ff_threshold = 0;
     ref.fused = ref.overlap = false;
-    if (cfg.backend == "original") ref.method = "jacobi";
+    if (cfg.backend == "original") ref.method = Method::jacobi;
     if (cfg.backend == "serial") ref.threads = 1;  // gauss-seidel and sor: the same one block of rows
     ref.history = false;
     SolveResult r = solve(sys, ref);
@@ -36,12 +36,15 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
     R = converged->B;
   }
   v.max_rel_diff = max_rel_diff(res.B, R);
-  v.bound = cfg.steps > 0 ? (cfg.precision == "double" ? 1e-10 : 1e-5) : 1e-5 + 20 * cfg.tol;
+  v.bound = cfg.steps > 0 ? (cfg.precision == Precision::double_ ? 1e-10 : 1e-5) : 1e-5 + 20 * cfg.tol;
   v.agreed = v.max_rel_diff <= v.bound;
   v.seconds = t.seconds();
   return v;
 }
 
+namespace {
+
+// The error reference from --reference-ff (and --reference-divide's finer mesh), carried onto m.
 ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m) {
   Mesh fine;
   if (a.reference_divide > 0) {
@@ -64,15 +67,31 @@ ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m) {
   return ref;
 }
 
-ErrorReference reference_before_rounding(const System& sys) {
-  return hpcgi::comm::agreed([&] { return converged_reference(sys, ""); });
+}  // namespace
+
+void solve_reference_at(ReferencePoint at, const SolveArgs& a, LoadedSolve& L) {
+  if (!a.verify || L.have_ref) return;
+  switch (at) {
+    case ReferencePoint::before_form_factors:
+      if (a.reference_ff.empty()) return;
+      L.ref = reference_from_file(a, L.m);
+      break;
+    case ReferencePoint::before_rounding:
+      if (L.same_matrix) return;  // the run solves the file's values as they are: its reference can wait for it
+      L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+      break;
+    case ReferencePoint::after_run:
+      L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+      break;
+  }
+  L.have_ref = true;
 }
 
 Checked verify_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const SolveResult& res) {
   Checked c;
   c.made = a.verify && !failed(res.status);
   if (c.made) {
-    if (!L.have_ref) L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+    solve_reference_at(ReferencePoint::after_run, a, L);
     if (L.ref.of.empty())
       L.ref.of = a.ff + (L.same_matrix ? "" : " before threshold and rounding") + " (" + L.patches + ")";
     c.v = hpcgi::comm::agreed([&] { return verify(L.sys, p.cfg, res, L.same_matrix ? &L.ref : nullptr); });
@@ -89,7 +108,7 @@ hpcgi::Outcome outcome_of(const SolveResult& res, const SolveConfig& cfg, const 
             res.status == SolveStatus::stagnant ? res.detail : std::string(to_string(res.status)) + ": " + res.detail};
   if (res.status == SolveStatus::max_iter) {
     std::snprintf(why, sizeof why, "%s stopped at --max-iter %ld with the largest relative residual %.3e, above --tol %.1e",
-                  cfg.method.c_str(), cfg.max_iter,
+                  to_string(cfg.method).c_str(), cfg.max_iter,
                   *std::max_element(res.rel_residual.begin(), res.rel_residual.end()), cfg.tol);
     return {hpcgi::kExitNotConverged, why};
   }

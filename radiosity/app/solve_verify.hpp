@@ -1,8 +1,7 @@
 // Phase 4 of `bin/radiosity solve` (solve_cmd.cpp): the verification. The float64 check of the run (BabelStream's
 // check_solution) and the error reference it is measured against (reference.hpp), and the outcome of the run as an
-// exit status (common/errors.hpp). The error reference is solved by one of the three functions below: from
-// --reference-ff before the run's own form factors are loaded, from the file's values before they are thresholded
-// or rounded (both by the load, solve_load.cpp, when those values are still there), else after the run, here.
+// exit status (common/errors.hpp). Where the error reference is solved is decided by one function here,
+// solve_reference_at, which the load calls at the two points where memory asks for it sooner than the run.
 #pragma once
 #include <string>
 
@@ -25,10 +24,13 @@ struct Verification {
 };
 Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult& res, const ErrorReference* converged);
 
-// The error reference from --reference-ff (and --reference-divide's finer mesh), carried onto m.
-ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m);
-// The error reference on the file's values (sys), before the run's threshold and rounding (agreed by the ranks).
-ErrorReference reference_before_rounding(const System& sys);
+// The points of a solve at which its error reference can be solved: before the run's own form factors are read
+// (the load; --reference-ff's, so that the two are never held at once), before the load thresholds or rounds the
+// file's values (the load; they are gone after), after the run (the verification; on the run's own matrix).
+enum class ReferencePoint { before_form_factors, before_rounding, after_run };
+// Solves L.ref (agreed by the ranks) if `at` is where this run's reference is due: the one statement of where.
+// Nothing with --no-verify or once it is solved; after_run once the load has set L.same_matrix.
+void solve_reference_at(ReferencePoint at, const SolveArgs& a, LoadedSolve& L);
 
 // What the verification made of a run (made: false with --no-verify or a failed run, which is not checked).
 struct Checked {

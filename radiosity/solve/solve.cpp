@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
+#include "common/cli.hpp"
 #include "common/errors.hpp"
 #include "common/timer.hpp"
 #include "radiosity/solve/backends.hpp"
@@ -16,7 +18,7 @@ template <class T>
 SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConfig& cfg,
                        const IterationCallback& callback) {
   SolveResult res;
-  const bool krylov = cfg.method == "bicgstab";
+  const bool krylov = cfg.method == Method::bicgstab;
   hpcgi::Timer t;
   auto k = make(sys, cfg, krylov ? kBicgstabVectors : kJacobiVectors);
   k->upload(0, sys.initial);
@@ -50,25 +52,16 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
 // A backend that supplies kernels: the shared methods run on it, in the precision asked.
 template <KernelFactory<float> MakeFloat, KernelFactory<double> MakeDouble>
 SolveResult run_kernels(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
-  return cfg.precision == "double" ? run_method<double>(MakeDouble, sys, cfg, callback)
+  return cfg.precision == Precision::double_ ? run_method<double>(MakeDouble, sys, cfg, callback)
                                    : run_method<float>(MakeFloat, sys, cfg, callback);
 }
 
-std::string joined(const std::vector<std::string>& v) {
-  std::string s;
-  for (const std::string& x : v) s += (s.empty() ? "" : ", ") + x;
-  return s;
-}
-
-bool has(const std::vector<std::string>& v, const std::string& x) { return std::find(v.begin(), v.end(), x) != v.end(); }
-
-// `what` must be one of `known`, and one of `supported` by the backend.
-void check_choice(const std::string& what, const std::string& value, const std::vector<std::string>& known,
-                  const SolveBackend& b, const std::vector<std::string>& supported) {
-  if (!has(known, value)) throw hpcgi::UsageError("unknown " + what + " '" + value + "' (known: " + joined(known) + ")");
-  if (!has(supported, value))
-    throw hpcgi::UsageError("backend '" + b.name + "' does not run " + what + " '" + value + "' (it runs " +
-                            joined(supported) + ")");
+// `value` must be one of those `supported` by the backend.
+template <class E>
+void check_choice(const std::string& what, E value, const SolveBackend& b, const std::vector<E>& supported) {
+  if (std::find(supported.begin(), supported.end(), value) == supported.end())
+    throw hpcgi::UsageError("backend '" + b.name + "' does not run " + what + " '" + to_string(value) + "' (it runs " +
+                            joined_names(supported) + ")");
 }
 
 }  // namespace
@@ -105,25 +98,29 @@ bool failed(SolveStatus s) {
 #endif
 
 const std::vector<SolveBackend>& solve_backends() {
+  static const std::vector<Method> kAll = {Method::jacobi, Method::bicgstab, Method::gauss_seidel, Method::sor},
+                                   kJacobiBicgstab = {Method::jacobi, Method::bicgstab};
+  static const std::vector<Layout> kAosSoa = {Layout::aos, Layout::soa};
+  static const std::vector<Precision> kBoth = {Precision::single, Precision::double_};
   static const std::vector<SolveBackend> list = {
       {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
-       {"jacobi"}, {"aos"}, {"float"}, false, true, "", run_original},
+       {Method::jacobi}, {Layout::aos}, {Precision::single}, false, true, "", run_original},
       {"serial", "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread",
-       {"jacobi", "bicgstab", "gauss-seidel", "sor"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+       kAll, kAosSoa, kBoth, true, true, "",
        run_kernels<make_serial<float>, make_serial<double>>, true, true},
       {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
                  "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)",
-       {"jacobi", "bicgstab", "gauss-seidel", "sor"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
+       kAll, kAosSoa, kBoth, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
-       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_cuda)},
+       kJacobiBicgstab, {Layout::aos}, kBoth, true, GPU_BACKEND(make_cuda)},
       {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
-       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(make_cublas)},
+       kJacobiBicgstab, {Layout::soa}, kBoth, true, GPU_BACKEND(make_cublas)},
       {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
-       {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_hybrid)},
+       {Method::jacobi}, {Layout::aos}, kBoth, true, GPU_BACKEND(make_hybrid)},
       {"mpi", "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
               "after every product (MPI_Allgatherv), dots by MPI_Allreduce",
-       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, MPI_BACKEND, false, true, true},
+       kJacobiBicgstab, kAosSoa, kBoth, true, MPI_BACKEND, false, true, true},
   };
   return list;
 }
@@ -136,7 +133,7 @@ const SolveBackend* find_backend(const std::string& name) {
 
 bool solve_one_channel(const System& sys, const SolveConfig& cfg) {
   const SolveBackend* b = find_backend(cfg.backend);
-  return cfg.channels == "auto" && b && b->one_channel && is_grey(sys);
+  return cfg.channels == Channels::automatic && b && b->one_channel && is_grey(sys);
 }
 
 const SolveBackend& require_backend(const std::string& name) {
@@ -152,35 +149,36 @@ const SolveBackend& require_backend(const std::string& name) {
 
 void check_config(const SolveConfig& cfg) {
   const SolveBackend* b = &require_backend(cfg.backend);
-  check_choice("method", cfg.method, {"jacobi", "bicgstab", "gauss-seidel", "sor"}, *b, b->methods);
-  check_choice("layout", cfg.layout, {"aos", "soa"}, *b, b->layouts);
-  check_choice("precision", cfg.precision, {"float", "double"}, *b, b->precisions);
+  check_choice("method", cfg.method, *b, b->methods);
+  check_choice("layout", cfg.layout, *b, b->layouts);
+  check_choice("precision", cfg.precision, *b, b->precisions);
   if (cfg.steps < 0) throw hpcgi::UsageError("steps must be >= 0 (0: stop on the tolerance)");
-  if (cfg.steps > 0 && cfg.method == "bicgstab")
+  if (cfg.steps > 0 && cfg.method == Method::bicgstab)
     throw hpcgi::UsageError("a fixed step count is for jacobi, gauss-seidel and sor; bicgstab stops on the tolerance "
                             "(steps = 0)");
-  parse_stop_rule(cfg.stop);  // throws for an unknown rule
-  if (cfg.start != "rrv" && cfg.start != "zero" && cfg.start != "emission")
-    throw hpcgi::UsageError("start must be rrv, zero or emission, got '" + cfg.start + "'");
   if (!(cfg.omega > 0 && cfg.omega < 2))
     throw hpcgi::UsageError("omega must lie in (0, 2) (SOR diverges outside), got " + std::to_string(cfg.omega));
-  if (cfg.omega != 1 && cfg.method != "sor")
-    throw hpcgi::UsageError("omega is for method sor (gauss-seidel is sor with omega 1)");
-  if (b->name == "original" && (cfg.history || cfg.stop != "residual-e"))
+  if (cfg.omega != 1 && cfg.method != Method::sor)
+    throw hpcgi::UsageError("--omega applies to --method sor, not " + to_string(cfg.method) +
+                            " (gauss-seidel is sor with omega 1)");
+  if (b->name == "original" && (cfg.history || cfg.stop != StopRule{}))
     throw hpcgi::UsageError("backend 'original' runs RRV's loop as it was: fixed steps, no history, no stopping rule");
   if (cfg.steps == 0) {
     if (!b->tolerance)
       throw hpcgi::UsageError("backend '" + b->name + "' runs a fixed number of steps (RRV has no tolerance); " +
                               "give steps (RRV's default is 32)");
-    if (!(cfg.tol > 0 && std::isfinite(cfg.tol))) throw hpcgi::UsageError("tol must be a positive number");
+    if (!(cfg.tol > 0 && std::isfinite(cfg.tol))) {
+      char why[96];
+      std::snprintf(why, sizeof why, "--tol %g: a tolerance must be a finite number > 0", cfg.tol);
+      throw hpcgi::UsageError(why);
+    }
+    hpcgi::check_tolerance(cfg.tol, to_string(cfg.precision));  // below 1, and reachable in the precision
     if (cfg.max_iter < 1) throw hpcgi::UsageError("max_iter must be >= 1");
   }
   if (cfg.threads < 0) throw hpcgi::UsageError("threads must be >= 0 (0: the OpenMP default)");
   if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
   if (cfg.ff_threshold != 0 && b->name != "original")
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
-  if (cfg.channels != "auto" && cfg.channels != "3")
-    throw hpcgi::UsageError("channels must be auto or 3, got '" + cfg.channels + "'");
 }
 
 SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback) {
@@ -190,26 +188,30 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
                             std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
                             " (an MPI rank's share): use backend mpi");
-  if (sys.stored.n && !b->any_storage) {
-    std::string which;
-    for (const SolveBackend& x : solve_backends())
-      if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
-    throw hpcgi::UsageError("backend '" + b->name + "' reads dense float32 form factors only, not " +
-                            to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
-                            " read any storage)");
-  }
+  if (sys.stored.n) require_storage(*b, sys.stored.storage, sys.stored.values);
   check_config(cfg);
-  if (cfg.start == "rrv") return b->run(sys, cfg, callback);
+  if (cfg.start == Start::rrv) return b->run(sys, cfg, callback);
   System started = sys;  // the same F (not owned), another b_0
   started.initial = start_vector(sys, cfg.start);
   return b->run(started, cfg, callback);
 }
 
-std::vector<Rgb> start_vector(const System& sys, const std::string& start) {
-  if (start == "zero") return std::vector<Rgb>(sys.n, Rgb{0, 0, 0});
-  if (start == "emission") return sys.emission;
-  if (start == "rrv") return sys.initial;
-  throw hpcgi::UsageError("start must be rrv, zero or emission, got '" + start + "'");
+void require_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
+  if (b.any_storage || (storage == FFStorage::dense && values == FFValues::float32)) return;
+  std::string which;
+  for (const SolveBackend& x : solve_backends())
+    if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
+  throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only, not " + to_string(storage) +
+                          " " + to_string(values) + " (" + which + " read any storage)");
+}
+
+std::vector<Rgb> start_vector(const System& sys, Start start) {
+  switch (start) {
+    case Start::zero: return std::vector<Rgb>(sys.n, Rgb{0, 0, 0});
+    case Start::emission: return sys.emission;
+    case Start::rrv: break;
+  }
+  return sys.initial;
 }
 
 }  // namespace radiosity

@@ -11,21 +11,22 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
+#include "radiosity/solve/choices.hpp"
 #include "radiosity/solve/methods/stop_rule.hpp"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity {
 
 struct SolveConfig {
-  std::string method = "jacobi";    // jacobi | bicgstab | gauss-seidel | sor
-  std::string layout = "aos";       // aos | soa
+  Method method = Method::jacobi;   // jacobi | bicgstab | gauss-seidel | sor (choices.hpp: the enums and their names)
+  Layout layout = Layout::aos;      // aos | soa
   std::string backend = "openmp";   // a name from solve_backends()
-  std::string precision = "float";  // float | double: the working precision of B and of the sums (F is stored as
-                                    //   the System holds it: float32, or 16-bit values widened in the sums)
+  Precision precision = Precision::single;  // float | double: the working precision of B and of the sums (F is
+                                            //   stored as the System holds it: float32, or 16-bit values widened)
   long steps = 0;                   // > 0: exactly this many Jacobi steps, no tolerance (RRV's default is 32)
   double tol = 1e-6;                // steps == 0: stop when the stopping rule's value is <= tol
-  std::string stop = "residual-e";  // the stopping rule (stop_rule.hpp): ‖e - A b‖ / ‖e‖ per channel by default
-  std::string start = "rrv";        // b_0: rrv (System::initial, RRV's max(radiosity, emission)) | zero | emission
+  StopRule stop;                    // the stopping rule (stop_rule.hpp): ‖e - A b‖ / ‖e‖ per channel by default
+  Start start = Start::rrv;         // b_0: rrv (System::initial, RRV's max(radiosity, emission)) | zero | emission
   bool history = false;             // keep every iterate's norms (SolveResult::history)
   double omega = 1.0;               // sor: the relaxation factor, in (0, 2); gauss-seidel is sor with omega 1
   long max_iter = 1000;             // steps == 0: give up after this many iterations
@@ -34,8 +35,8 @@ struct SolveConfig {
   bool fused = false;               // cublas: one Sgemm over the three channels instead of one Sgemv per channel
   double distribution = 0.5;        // hybrid: the first ceil(d n) rows on the GPU, the rest on the CPU; d in [0, 1]
   bool overlap = false;             // hybrid: pinned staging and async copies that overlap the CPU's rows
-  std::string channels = "auto";    // auto: a grey system (is_grey) is solved as one channel where the backend can;
-                                    //   3: always three
+  Channels channels = Channels::automatic;  // auto: a grey system (is_grey) is solved as one channel where the
+                                            //   backend can; 3: always three
 };
 
 enum class SolveStatus {
@@ -94,7 +95,9 @@ using BackendRun = SolveResult (*)(const System&, const SolveConfig&, const Iter
 struct SolveBackend {
   std::string name;
   std::string summary;
-  std::vector<std::string> methods, layouts, precisions;  // what it runs
+  std::vector<Method> methods;  // what it runs
+  std::vector<Layout> layouts;
+  std::vector<Precision> precisions;
   bool tolerance;     // whether it can stop on a tolerance (false: fixed steps only)
   bool built;         // compiled into this binary
   std::string why_not;
@@ -109,17 +112,22 @@ const std::vector<SolveBackend>& solve_backends();
 bool solve_one_channel(const System& sys, const SolveConfig& cfg);
 
 // The starting vector cfg.start names: sys.initial (rrv), zeros, or the emission.
-std::vector<Rgb> start_vector(const System& sys, const std::string& start);
+std::vector<Rgb> start_vector(const System& sys, Start start);
 
 // The backend of that name; throws hpcgi::UsageError for an unknown one or one this binary was built without.
 const SolveBackend& require_backend(const std::string& name);
 
-// Throws hpcgi::UsageError for a configuration no backend runs as asked (unknown or unsupported method, layout,
-// precision; bicgstab with steps; original without steps; ...), before any system exists: the one statement of
-// these rules, which solve() applies too and an application may apply first to refuse a request early.
+// Throws hpcgi::UsageError for a configuration no backend runs as asked (a method, layout or precision the backend
+// does not run; bicgstab with steps; original without steps; omega outside (0, 2) or without sor; a tolerance not
+// in (0, 1) or out of the precision's reach; ...), before any system exists: the one statement of these rules,
+// which solve() applies too and an application applies first to refuse a request early.
 void check_config(const SolveConfig& cfg);
 
-// Throws hpcgi::UsageError for a bad system or configuration (unknown or unsupported method, layout, backend,
+// Throws hpcgi::UsageError where backend b does not read form factors stored so (the backends without any_storage
+// read dense float32 only): the rule solve() applies to a system, and an application to a request.
+void require_storage(const SolveBackend& b, FFStorage storage, FFValues values);
+
+// Throws hpcgi::UsageError for a bad system or configuration (unknown backend; unsupported method, layout,
 // precision; bicgstab with steps; original without steps; ...). Numerical failure is not thrown: it is the
 // status (breakdown, nonfinite, divergent) for the caller to turn into exit status 3.
 SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCallback& callback = nullptr);

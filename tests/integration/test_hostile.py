@@ -200,6 +200,11 @@ def test_tolerances_thresholds_and_snapshots_that_make_no_answer_are_refused(box
     refused(radiosity(*s, "--tol", "1e-300"), "below what float can reach")
     refused(radiosity(*s, "--tol", "1e-300", "--precision", "double"), "below what double can reach")
     refused(radiosity(*s, "--tol", "1"), "below 1")
+    refused(radiosity(*s, "--tol", "-1"), "--tol -1", "finite number > 0")
+    # relight's frames by the same rules (check_config), before anything is read
+    r = ["relight", box / "box.xml", "--ff", box / "box.ff", "--random-frames", "2", "--quiet"]
+    refused(radiosity(*r, "--tol", "2"), "below 1")
+    refused(radiosity(*r, "--tol", "1e-300"), "below what float can reach")
     refused(run([BIN / "poisson", "--n", "8", "--tol", "2"]), "below 1")
     for t in ("nan", "1", "-0.1"):
         refused(radiosity(*s, "--threshold", t), "--threshold", "from 0 to below 1")

@@ -10,7 +10,7 @@ template <class T>
 std::unique_ptr<Kernels<T>> make_openmp(const System& sys, const SolveConfig& cfg, int vectors) {
   const OpenMPExec ex(cfg.threads);
   if (solve_one_channel(sys, cfg)) return std::make_unique<CpuKernels<T, Grey, OpenMPExec>>(sys, vectors, ex);
-  if (cfg.layout == "soa") return std::make_unique<CpuKernels<T, Soa, OpenMPExec>>(sys, vectors, ex);
+  if (cfg.layout == Layout::soa) return std::make_unique<CpuKernels<T, Soa, OpenMPExec>>(sys, vectors, ex);
   return std::make_unique<CpuKernels<T, Aos, OpenMPExec>>(sys, vectors, ex);
 }
 template std::unique_ptr<Kernels<float>> make_openmp(const System&, const SolveConfig&, int);

@@ -8,7 +8,7 @@ namespace radiosity {
 template <class T>
 std::unique_ptr<Kernels<T>> make_serial(const System& sys, const SolveConfig& cfg, int vectors) {
   if (solve_one_channel(sys, cfg)) return std::make_unique<CpuKernels<T, Grey, SerialExec>>(sys, vectors, SerialExec{});
-  if (cfg.layout == "soa") return std::make_unique<CpuKernels<T, Soa, SerialExec>>(sys, vectors, SerialExec{});
+  if (cfg.layout == Layout::soa) return std::make_unique<CpuKernels<T, Soa, SerialExec>>(sys, vectors, SerialExec{});
   return std::make_unique<CpuKernels<T, Aos, SerialExec>>(sys, vectors, SerialExec{});
 }
 template std::unique_ptr<Kernels<float>> make_serial(const System&, const SolveConfig&, int);

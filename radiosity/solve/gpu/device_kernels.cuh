@@ -42,7 +42,7 @@ class DeviceKernels : public Kernels<T> {
 
 // "backend NAME (N patches, PRECISION)": who asks, in the refusals of require_gpu and require_device_memory.
 inline std::string who(const std::string& backend, const System& sys, const SolveConfig& cfg) {
-  return "backend " + backend + " (" + std::to_string(sys.n) + " patches, " + cfg.precision + ")";
+  return "backend " + backend + " (" + std::to_string(sys.n) + " patches, " + to_string(cfg.precision) + ")";
 }
 
 }  // namespace radiosity::gpu

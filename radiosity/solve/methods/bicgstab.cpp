@@ -24,7 +24,7 @@ MethodRun bicgstab(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const I
   enum Slot { X = 0, RHAT, P, V, T_, R_A, R_B, X_OLD };
   constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
   const Rgb unknown{kUnknown, kUnknown, kUnknown};
-  const StopRule rule = parse_stop_rule(cfg.stop);
+  const StopRule& rule = cfg.stop;
   const bool steps_needed = cfg.history || rule.on_step();
   const bool norms_b = cfg.history || rule.needs_b();
   const bool norms_inf = cfg.history || rule.base == StopRule::Base::step_inf;

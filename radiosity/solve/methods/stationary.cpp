@@ -13,10 +13,10 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
   constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
   MethodRun run;
   Snapshots<T> snapshots(k, callback);
-  const StopRule rule = parse_stop_rule(cfg.stop);
+  const StopRule& rule = cfg.stop;
   const bool fixed = cfg.steps > 0;
-  const bool jacobi = cfg.method == "jacobi";
-  const double omega = cfg.method == "sor" ? cfg.omega : 1.0;
+  const bool jacobi = cfg.method == Method::jacobi;
+  const double omega = cfg.method == Method::sor ? cfg.omega : 1.0;
   // The O(n) norms beyond the step's own: for the history, or for a rule that needs them.
   const bool norms_b = cfg.history || (!fixed && rule.needs_b());
   const bool norms_inf = cfg.history || (!fixed && rule.base == StopRule::Base::step_inf);
@@ -44,7 +44,7 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
     if (cfg.history) run.history.push_back(m);
   };
   Rgb first{0, 0, 0};  // the residual of b_0, which divergence is measured against
-  Stagnation stagnation(cfg.tol, cfg.precision == "double");
+  Stagnation stagnation(cfg.tol, cfg.precision == Precision::double_);
   for (long step = 1; step <= last; ++step) {
     // Jacobi: b_step - b_{step-1} = e - A b_{step-1}, so the residual of the previous iterate comes with the step
     // for O(n). Gauss-Seidel and SOR: the sweep sums every row against b_{step-1} as well and returns its residual.
@@ -72,7 +72,7 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
     const std::string diverged = finite ? divergence(first, res) : "";
     if (!finite || !diverged.empty()) {
       run.status = finite ? SolveStatus::divergent : SolveStatus::nonfinite;
-      run.detail = cfg.method + ": " + (finite ? diverged : "non-finite radiosity or residual") + " at step " +
+      run.detail = to_string(cfg.method) + ": " + (finite ? diverged : "non-finite radiosity or residual") + " at step " +
                    std::to_string(step);
       run.iterations = step;
       run.answer = nxt;
@@ -85,7 +85,7 @@ MethodRun stationary(Kernels<T>& k, const Rgb& e2, const SolveConfig& cfg, const
       const std::string stuck = stagnation(step, res);
       if (!stuck.empty()) {
         run.status = SolveStatus::stagnant;
-        run.detail = stuck.substr(0, 13) + cfg.method + ": " + stuck.substr(13) +
+        run.detail = stuck.substr(0, 13) + to_string(cfg.method) + ": " + stuck.substr(13) +
                      " (the iteration makes no progress: (I - ρF) B = E has no solution it can reach, as for a "
                      "closed scene that loses no light)";
         run.iterations = step - 1;  // b_{step-1}, whose residual it is

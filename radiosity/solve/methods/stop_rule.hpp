@@ -30,6 +30,8 @@ struct StopRule {
   bool stacked = false, squared = false;
   bool on_step() const { return base == Base::step_2 || base == Base::step_inf; }
   bool needs_b() const { return base == Base::residual_b || on_step(); }
+  bool operator==(const StopRule& o) const { return base == o.base && stacked == o.stacked && squared == o.squared; }
+  bool operator!=(const StopRule& o) const { return !(*this == o); }
   // The rule's value for b_k per channel (stacked: the same stacked value in every channel), given ‖e‖² and
   // ‖r_0‖² per channel.
   Rgb values(const IterateNorms& k, const Rgb& e2, const Rgb& r0_2) const;

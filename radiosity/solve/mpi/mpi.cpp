@@ -203,7 +203,7 @@ std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, 
                             "under mpirun -np P");
   if (sys.stored.n) throw hpcgi::UsageError("backend mpi reads dense float32 form factors only");
   if (solve_one_channel(sys, cfg)) return std::make_unique<MpiKernels<T, Grey>>(sys, vectors, cfg.threads);
-  if (cfg.layout == "soa") return std::make_unique<MpiKernels<T, Soa>>(sys, vectors, cfg.threads);
+  if (cfg.layout == Layout::soa) return std::make_unique<MpiKernels<T, Soa>>(sys, vectors, cfg.threads);
   return std::make_unique<MpiKernels<T, Aos>>(sys, vectors, cfg.threads);
 }
 template std::unique_ptr<Kernels<float>> make_mpi(const System&, const SolveConfig&, int);

@@ -50,7 +50,7 @@ TEST_F(SolvePhases, PlanRefusesWhatCannotRun) {
   a.cfg.backend = "gpu";
   refused(a, "unknown solver backend 'gpu' (known: original | serial");
   a = args;
-  a.cfg.method = "bicgstab";
+  a.cfg.method = Method::bicgstab;
   a.cfg.steps = 32;
   refused(a, "a fixed step count is for jacobi");  // the library's rule, applied by the plan before the load
   a = args;

@@ -9,7 +9,7 @@ using namespace radiosity::app;
 using solve_phases::SolvePhases;
 
 TEST_F(SolvePhases, RunsThePlansMethodAndDrawsSnapshots) {
-  args.cfg.method = "bicgstab";
+  args.cfg.method = Method::bicgstab;
   args.snapshots = {1, 2};
   args.snapshot_prefix = file("snap");
   args.size = "16x12";

@@ -140,8 +140,8 @@ TEST(LightBasis, MixEqualsSolveOfTheMixedEmission) {
     for (size_t i = 0; i < n; ++i) fm.patches[i].emission = e[i];
     System sys = make_system(fm, s.F.data());
     SolveConfig cfg;
-    cfg.method = "bicgstab";
-    cfg.precision = "double";
+    cfg.method = Method::bicgstab;
+    cfg.precision = Precision::double_;
     cfg.tol = 1e-12;
     const SolveResult ref = solve(sys, cfg);
     ASSERT_EQ(ref.status, SolveStatus::converged);

@@ -53,8 +53,8 @@ Bench make_bench() {
 double step_seconds(const System& sys, const std::string& backend, const std::string& layout, long steps) {
   SolveConfig c;
   c.backend = backend;
-  c.layout = layout;
-  c.precision = "float";
+  c.layout = parse_layout(layout);
+  c.precision = Precision::single;
   c.steps = steps;
   c.threads = kThreads;
   double best = 1e30;

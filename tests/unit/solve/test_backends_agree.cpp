@@ -4,6 +4,7 @@
 #include <string>
 
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -13,14 +14,8 @@ namespace {
 
 SolveResult run(const System& s, const std::string& backend, const std::string& layout, const std::string& method,
                 const std::string& precision, long steps, int threads = 2) {
-  SolveConfig c;
-  c.backend = backend;
-  c.layout = layout;
-  c.method = method;
-  c.precision = precision;
-  c.steps = steps;
+  SolveConfig c = solve_config(backend, layout, method, precision, steps, threads);
   c.tol = precision == "float" ? 1e-5 : 1e-10;
-  c.threads = threads;
   return solve(s, c);
 }
 
@@ -76,7 +71,7 @@ TEST(BackendsAgree, OriginalDropsFormFactorsAtOrBelowTheThreshold) {
   const float threshold = p.F[1];  // a value that is present, so "at" the threshold is exercised too
   SolveConfig c;
   c.backend = "original";
-  c.precision = "float";
+  c.precision = Precision::single;
   c.steps = 16;
   c.ff_threshold = threshold;
   const SolveResult orig = solve(p.sys, c);

@@ -35,9 +35,9 @@ std::vector<Case> every_case() {
 SolveResult run(const System& s, const Case& k) {
   SolveConfig c;
   c.backend = k.backend;
-  c.layout = k.layout;
-  c.method = k.method;
-  c.precision = k.precision;
+  c.layout = parse_layout(k.layout);
+  c.method = parse_method(k.method);
+  c.precision = parse_precision(k.precision);
   c.tol = k.precision == "float" ? 1e-6 : 1e-13;
   c.max_iter = 2000;
   c.threads = 2;

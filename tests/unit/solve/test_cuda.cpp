@@ -14,6 +14,7 @@
 #include "common/errors.hpp"
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/methods/methods.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -66,27 +67,17 @@ const std::vector<Gpu>& every_gpu_config() {
 }
 
 SolveConfig config(const Gpu& g, const std::string& method, const std::string& precision, long steps) {
-  SolveConfig c;
-  c.backend = g.backend;
-  c.layout = g.layout;
+  SolveConfig c = solve_config(g.backend, g.layout, method, precision, steps);
+  c.tol = 1e-6;
   c.fused = g.fused;
   c.distribution = g.distribution;
   c.overlap = g.overlap;
-  c.method = method;
-  c.precision = precision;
-  c.steps = steps;
   c.max_iter = 5000;
-  c.threads = 2;
   return c;
 }
 
 SolveConfig serial_double(const std::string& method, long steps) {
-  SolveConfig c;
-  c.backend = "serial";
-  c.method = method;
-  c.precision = "double";
-  c.steps = steps;
-  c.tol = 1e-12;
+  SolveConfig c = solve_config("serial", "aos", method, "double", steps);
   c.max_iter = 10000;
   return c;
 }
@@ -169,7 +160,7 @@ TEST(CudaBackends, EveryKernelAgreesWithSerial) {
     const SolveConfig c = config(g, "jacobi", sizeof(T) == 4 ? "float" : "double", 0);
     const std::unique_ptr<Kernels<T>> k = make(p.sys, c, 4);
     SolveConfig sc = c;
-    sc.layout = "aos";
+    sc.layout = Layout::aos;
     const std::unique_ptr<Kernels<T>> s = make_serial<T>(p.sys, sc, 4);
     std::vector<Rgb> got, want;
     auto same = [&](int v, const char* what) {

@@ -50,8 +50,8 @@ void from_row_zero_is_openmp(size_t n, int threads) {
   const Problem p = random_problem(n, 71);
   SolveConfig c;
   c.backend = "openmp";
-  c.layout = "aos";
-  c.precision = sizeof(T) == 4 ? "float" : "double";
+  c.layout = Layout::aos;
+  c.precision = sizeof(T) == 4 ? Precision::single : Precision::double_;
   c.steps = 32;
   c.threads = threads;
   const SolveResult omp = solve(p.sys, c);
@@ -84,7 +84,7 @@ void later_rows_are_openmp_rows(size_t first) {
   const size_t n = 203;
   const Problem p = random_problem(n, 73);
   SolveConfig c;
-  c.layout = "aos";
+  c.layout = Layout::aos;
   c.threads = 3;
   const auto k = make_openmp<T>(p.sys, c, 3);
   HostRows<T> h(p.sys, first, 3, 3);

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -16,14 +17,9 @@ double max_of(const Rgb& v) { return std::max({v[0], v[1], v[2]}); }
 
 SolveConfig config(const std::string& method, const std::string& backend, const std::string& layout,
                    const std::string& precision, double tol) {
-  SolveConfig c;
-  c.method = method;
-  c.backend = backend;
-  c.layout = layout;
-  c.precision = precision;
+  SolveConfig c = solve_config(backend, layout, method, precision);
   c.tol = tol;
   c.max_iter = 5000;
-  c.threads = 2;
   return c;
 }
 

@@ -37,7 +37,7 @@ TEST(Extremes, ClosedBoxConvergesToEOverOneMinusRhoWithinTheTolerance) {
     SCOPED_TRACE(rho);
     const Problem p = uniform_room(rho, 1.0);
     SolveConfig c;
-    c.precision = "double";
+    c.precision = Precision::double_;
     c.tol = tol;
     c.max_iter = 200000;
     const SolveResult r = solve(p.sys, c);
@@ -53,8 +53,8 @@ TEST(Extremes, ClosedBoxConvergesToEOverOneMinusRhoWithinTheTolerance) {
 TEST(Extremes, BicgstabSolvesTheNearlyLosslessBoxInAFewIterations) {
   const Problem p = uniform_room(0.9999, 1.0);
   SolveConfig c;
-  c.method = "bicgstab";
-  c.precision = "double";
+  c.method = Method::bicgstab;
+  c.precision = Precision::double_;
   c.tol = 1e-10;
   const SolveResult r = solve(p.sys, c);
   ASSERT_EQ(r.status, SolveStatus::converged) << r.detail;
@@ -67,7 +67,7 @@ TEST(Extremes, ZeroEmissionHasADefinedResidual) {
   const Problem p = uniform_room(0.5, 0.0);
   for (const char* method : {"jacobi", "bicgstab"}) {
     SolveConfig c;
-    c.method = method;
+    c.method = parse_method(method);
     const SolveResult r = solve(p.sys, c);
     EXPECT_EQ(r.status, SolveStatus::converged) << method;
     EXPECT_EQ(r.iterations, 0) << method;
@@ -85,7 +85,7 @@ TEST(Extremes, FloatHandlesEmissionFrom1em30To1e30) {
     const Problem p = uniform_room(0.5, E);
     for (const char* method : {"jacobi", "bicgstab"}) {
       SolveConfig c;
-      c.method = method;
+      c.method = parse_method(method);
       c.tol = 1e-6;
       const SolveResult r = solve(p.sys, c);
       ASSERT_EQ(r.status, SolveStatus::converged) << method;

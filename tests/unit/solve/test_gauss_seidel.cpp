@@ -8,6 +8,7 @@
 
 #include "common/errors.hpp"
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -17,13 +18,7 @@ namespace {
 
 SolveConfig config(const std::string& backend, const std::string& layout, const std::string& method,
                    const std::string& precision, int threads) {
-  SolveConfig c;
-  c.backend = backend;
-  c.layout = layout;
-  c.method = method;
-  c.precision = precision;
-  c.threads = threads;
-  c.tol = precision == "float" ? 1e-6 : 1e-12;
+  SolveConfig c = solve_config(backend, layout, method, precision, 0, threads);
   c.max_iter = 2000;
   return c;
 }

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -31,16 +32,9 @@ TEST(Grey, GreySystemsSolveOneChannelWithTheAnswerOfThree) {
         for (const auto& [method, steps] : {std::pair{"jacobi", 24L}, {"jacobi", 0L}, {"bicgstab", 0L}}) {
           SCOPED_TRACE(std::string(backend) + " " + layout + " " + precision + " " + method + " " +
                        std::to_string(steps));
-          SolveConfig c;
-          c.backend = backend;
-          c.layout = layout;
-          c.precision = precision;
-          c.method = method;
-          c.steps = steps;
-          c.tol = std::string(precision) == "float" ? 1e-6 : 1e-12;
-          c.threads = 3;
+          SolveConfig c = solve_config(backend, layout, method, precision, steps, 3);
           const SolveResult one = solve(p.sys, c);
-          c.channels = "3";
+          c.channels = Channels::three;
           const SolveResult three = solve(p.sys, c);
           EXPECT_EQ(one.channels, 1);
           EXPECT_EQ(three.channels, 3);

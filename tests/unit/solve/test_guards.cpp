@@ -9,6 +9,7 @@
 
 #include "radiosity/solve/methods/divergence.hpp"
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -19,11 +20,8 @@ namespace {
 constexpr size_t kN = 33;  // 1/(n-1) = 1/32 is exact in float
 
 SolveConfig config(const std::string& backend, const std::string& method, const std::string& precision) {
-  SolveConfig c;
-  c.backend = backend;
-  c.method = method;
-  c.precision = precision;
-  c.threads = 2;
+  SolveConfig c = solve_config(backend, "aos", method, precision);
+  c.tol = 1e-6;
   c.max_iter = 100000;
   return c;
 }
@@ -56,7 +54,7 @@ TEST(Guards, JacobiDivergenceStopsEarly) {
         for (long steps : {0L, 1000L}) {
           SCOPED_TRACE(std::string(backend) + " " + layout + " " + precision + " steps " + std::to_string(steps));
           SolveConfig c = config(backend, "jacobi", precision);
-          c.layout = layout;
+          c.layout = parse_layout(layout);
           c.steps = steps;
           const SolveResult r = solve(p.sys, c);
           EXPECT_EQ(r.status, SolveStatus::divergent);

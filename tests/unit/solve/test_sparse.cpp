@@ -20,6 +20,7 @@
 #include "radiosity/solve/storage/ff_matrix_file.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "radiosity/solve/storage/storage_choice.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -44,15 +45,7 @@ Problem occluded_problem(size_t n, unsigned seed, double zero_share) {
 
 SolveConfig config(const std::string& backend, const std::string& layout, const std::string& precision, long steps,
                    int threads = 2, const std::string& method = "jacobi") {
-  SolveConfig c;
-  c.backend = backend;
-  c.layout = layout;
-  c.method = method;
-  c.precision = precision;
-  c.steps = steps;
-  c.tol = precision == "float" ? 1e-6 : 1e-12;
-  c.threads = threads;
-  return c;
+  return solve_config(backend, layout, method, precision, steps, threads);
 }
 
 FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, uint32_t max_step = kMaxStep) {
@@ -86,11 +79,7 @@ TEST(Sparse, EveryStorageGivesTheDenseAnswer) {
                                               {"gauss-seidel", 0L}}) {
             SCOPED_TRACE(std::string(to_string(st)) + " " + backend + " " + layout + " " + precision + " " + method +
                          " " + std::to_string(steps));
-            const SolveConfig c = config(backend, layout, precision, steps, 2, method);
-            const SolveResult dense = solve(p.sys, c), sparse = solve(s, c);
-            EXPECT_EQ(sparse.status, dense.status);
-            EXPECT_LE(rel_diff(sparse.B, dense.B), 1e-6);
-            EXPECT_EQ(sparse.matrix_bytes, m.bytes());
+            expect_storage_agrees(p.sys, s, config(backend, layout, precision, steps, 2, method), m.bytes());
           }
   }
 }

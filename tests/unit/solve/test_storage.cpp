@@ -10,6 +10,7 @@
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/half.hpp"
 #include "radiosity/solve/solve.hpp"
+#include "configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
@@ -29,15 +30,7 @@ Problem sparse_problem(size_t n, unsigned seed, double zero_share) {
 
 SolveConfig config(const std::string& backend, const std::string& layout, const std::string& method,
                    const std::string& precision, long steps) {
-  SolveConfig c;
-  c.backend = backend;
-  c.layout = layout;
-  c.method = method;
-  c.precision = precision;
-  c.steps = steps;
-  c.tol = precision == "float" ? 1e-6 : 1e-12;
-  c.threads = 2;
-  return c;
+  return solve_config(backend, layout, method, precision, steps);
 }
 
 // The same system with its F held as `opt` says (the matrix must outlive the system).
@@ -74,11 +67,7 @@ TEST(Storage, CsrAndDenseAgreeAtThresholdZero) {
         for (const auto& [method, steps] : {std::pair{"jacobi", 32L}, {"jacobi", 0L}, {"bicgstab", 0L}}) {
           SCOPED_TRACE(std::string(backend) + " " + layout + " " + precision + " " + method + " " +
                        std::to_string(steps));
-          const SolveConfig c = config(backend, layout, method, precision, steps);
-          const SolveResult dense = solve(p.sys, c), sparse = solve(s, c);
-          EXPECT_EQ(sparse.status, dense.status);
-          EXPECT_LE(rel_diff(sparse.B, dense.B), 1e-6);
-          EXPECT_EQ(sparse.matrix_bytes, csr.bytes());
+          expect_storage_agrees(p.sys, s, config(backend, layout, method, precision, steps), csr.bytes());
         }
 }
 
