@@ -7,6 +7,7 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/files.hpp"
+#include "radiosity/solve/storage/storage_choice.hpp"
 
 namespace radiosity::app {
 namespace {
@@ -30,9 +31,15 @@ void check_backend_reads(const SolveArgs& a, const SolvePlan& p) {
   if (b.distributed && !a.reference_ff.empty())
     throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
                             "--ff (solve the finer mesh with serial or openmp)");
-  if (!b.any_storage && ((p.storage && *p.storage != FFStorage::dense) || p.values != FFValues::float32))
-    throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only: --storage " +
-                            "csr|compressed and --ff-precision float16|bfloat16 run on serial and openmp");
+  if (p.storage ? !reads_storage(b, *p.storage, p.values) : readable_storages(b, p.values).empty()) {
+    std::string which;
+    for (const SolveBackend& x : solve_backends())
+      if (p.storage ? reads_storage(x, *p.storage, p.values) : !readable_storages(x, p.values).empty())
+        which += (which.empty() ? "" : ", ") + x.name;
+    throw hpcgi::UsageError("backend '" + b.name + "' does not read " +
+                            (p.storage ? to_string(*p.storage) : "any storage of") + std::string(" ") +
+                            to_string(p.values) + " form factors (" + which + " do)");
+  }
 }
 
 }  // namespace
@@ -68,9 +75,10 @@ SolvePlan plan_solve(const SolveArgs& a) {
 
 void plan_sparse_file(const SolveArgs& a, const SolveBackend& b, const FormFactorFileInfo& info) {
   const std::string file = "--ff '" + a.ff + "' holds " + info.storage + " " + info.precision + " form factors";
-  if (!b.any_storage)
+  if (!reads_storage(b, parse_ff_storage(info.storage), parse_ff_values(info.precision)) || b.distributed)
     throw hpcgi::UsageError(file + ": backend '" + b.name + "' reads dense float32 files only (write the file with "
-                            "formfactors --storage dense)");
+                            "formfactors --storage dense" +
+                            (b.distributed ? "; each rank builds its rows' storage from it" : "") + ")");
   if (a.storage != "auto" && a.storage != info.storage)
     throw hpcgi::UsageError(file + ", not " + a.storage + ": give --storage auto or " + info.storage);
   if (a.ff_precision != info.precision)

@@ -116,16 +116,24 @@ const std::vector<SolveBackend>& solve_backends() {
        {"jacobi", "bicgstab", "gauss-seidel", "sor"}, {"aos", "soa"}, {"float", "double"}, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
-       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_cuda)},
-      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
-       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(make_cublas)},
+       {"jacobi", "bicgstab"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_cuda), false, false, false,
+       true},
+      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
+                 "csr float32 by cuSPARSE",
+       {"jacobi", "bicgstab"}, {"soa"}, {"float", "double"}, true, GPU_BACKEND(make_cublas), false, false, false,
+       true},
       {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
        {"jacobi"}, {"aos"}, {"float", "double"}, true, GPU_BACKEND(make_hybrid)},
       {"mpi", "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
               "after every product (MPI_Allgatherv), dots by MPI_Allreduce",
-       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, MPI_BACKEND, false, true, true},
+       {"jacobi", "bicgstab"}, {"aos", "soa"}, {"float", "double"}, true, MPI_BACKEND, true, true, true},
   };
   return list;
+}
+
+bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
+  if (b.any_storage || (storage == FFStorage::dense && values == FFValues::float32)) return true;
+  return b.sparse_storage && storage != FFStorage::dense;
 }
 
 const SolveBackend* find_backend(const std::string& name) {
@@ -190,13 +198,12 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
                             std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
                             " (an MPI rank's share): use backend mpi");
-  if (sys.stored.n && !b->any_storage) {
+  if (sys.stored.n && !reads_storage(*b, sys.stored.storage, sys.stored.values)) {
     std::string which;
     for (const SolveBackend& x : solve_backends())
-      if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
-    throw hpcgi::UsageError("backend '" + b->name + "' reads dense float32 form factors only, not " +
-                            to_string(sys.stored.storage) + " " + to_string(sys.stored.values) + " (" + which +
-                            " read any storage)");
+      if (reads_storage(x, sys.stored.storage, sys.stored.values)) which += (which.empty() ? "" : ", ") + x.name;
+    throw hpcgi::UsageError("backend '" + b->name + "' does not read " + to_string(sys.stored.storage) + " " +
+                            to_string(sys.stored.values) + " form factors (" + which + " do)");
   }
   check_config(cfg);
   if (cfg.start == "rrv") return b->run(sys, cfg, callback);

@@ -102,8 +102,12 @@ struct SolveBackend {
   bool any_storage = false;  // reads F in any storage (System::stored); the others need dense float32 F
   bool one_channel = false;  // solves a grey system as one channel
   bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
+  bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
 };
 const std::vector<SolveBackend>& solve_backends();
+
+// Whether backend b reads F stored so (any_storage, sparse_storage; dense float32 every backend reads).
+bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values);
 
 // Whether this run solves one channel: cfg.channels is auto, the system is grey and the backend can.
 bool solve_one_channel(const System& sys, const SolveConfig& cfg);
