@@ -33,7 +33,7 @@ DEFS := $(if $(HAVE_MPI),-DHAVE_MPI -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX) $(if
 CPPFLAGS += -I. -I$(BUILD)/gen $(DEFS)
 CXXFLAGS += -std=c++17 $(OPT) $(SAN_FLAGS) -fopenmp -Wall -Wextra -MMD -MP
 NVCCFLAGS ?= -O3 -std=c++17 -arch=sm_$(CUDA_ARCH) -Xcompiler -fopenmp
-LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcudart)
+LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-rpath$(comma)$(CUDA_HOME)/lib64 -lcublas -lcusparse -lcudart)
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
 # one-process version of its collectives, and the files that only exist for MPI are left out.

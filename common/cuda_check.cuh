@@ -1,8 +1,9 @@
-// Every CUDA and cuBLAS call of the project goes through these checks; a failure throws with the call, the file
+// Every CUDA, cuBLAS and cuSPARSE call of the project goes through these checks; a failure throws with the call, the file
 // and the line. Kernel launches are followed by CUDA_CHECK_LAUNCH().
 #pragma once
 #include <cublas_v2.h>
 #include <cuda_runtime.h>
+#include <cusparse.h>
 
 #include <map>
 #include <stdexcept>
@@ -30,6 +31,13 @@ namespace hpcgi {
     cublasStatus_t st_ = (call);                                                                  \
     if (st_ != CUBLAS_STATUS_SUCCESS)                                                             \
       ::hpcgi::cuda_fail(#call, cublasGetStatusString(st_), __FILE__, __LINE__);                 \
+  } while (0)
+
+#define CUSPARSE_CHECK(call)                                                                      \
+  do {                                                                                            \
+    cusparseStatus_t st_ = (call);                                                                \
+    if (st_ != CUSPARSE_STATUS_SUCCESS)                                                           \
+      ::hpcgi::cuda_fail(#call, cusparseGetErrorString(st_), __FILE__, __LINE__);                \
   } while (0)
 
 // Throws UsageError (exit status 2) when no usable GPU is present, naming what CUDA said. Counting devices is not
@@ -144,6 +152,27 @@ class BlasHandle {
 
  private:
   cublasHandle_t h_{};
+};
+
+// A cuSPARSE handle that lives as long as its owner, its calls on `stream`.
+class SparseHandle {
+ public:
+  explicit SparseHandle(cudaStream_t stream = nullptr) {
+    CUSPARSE_CHECK(cusparseCreate(&h_));
+    try {
+      CUSPARSE_CHECK(cusparseSetStream(h_, stream));
+    } catch (...) {
+      cusparseDestroy(h_);
+      throw;
+    }
+  }
+  ~SparseHandle() { cusparseDestroy(h_); }
+  SparseHandle(const SparseHandle&) = delete;
+  SparseHandle& operator=(const SparseHandle&) = delete;
+  cusparseHandle_t get() const { return h_; }
+
+ private:
+  cusparseHandle_t h_{};
 };
 
 }  // namespace hpcgi

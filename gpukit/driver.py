@@ -179,15 +179,18 @@ class Driver:
                           [Cmd([b("solve_tests"), "--gtest_filter=Cuda*"], text_check=gpu_tests_ran)]))
         san = self.sanitizer()
         s1 = [b("radiosity"), "solve", scene(1), "--ff", str(ff1), "--no-verify"]
+        s1d = s1 + ["--storage", "dense"]  # the dense kernels (--storage auto takes a sparse one on cuda, cublas)
         memcheck = {
-            "radiosity cuda float": s1 + ["--backend", "cuda", "--steps", "3"],
-            "radiosity cuda double bicgstab": s1 + ["--backend", "cuda", "--precision", "double", "--method",
+            "radiosity cuda float": s1d + ["--backend", "cuda", "--steps", "3"],
+            "radiosity cuda double bicgstab": s1d + ["--backend", "cuda", "--precision", "double", "--method",
                                                     "bicgstab", "--tol", "1e-5"],
-            "radiosity cublas bicgstab": s1 + ["--backend", "cublas", "--method", "bicgstab", "--tol", "1e-5"],
-            "radiosity cublas --fused double": s1 + ["--backend", "cublas", "--fused", "--precision", "double",
+            "radiosity cublas bicgstab": s1d + ["--backend", "cublas", "--method", "bicgstab", "--tol", "1e-5"],
+            "radiosity cublas --fused double": s1d + ["--backend", "cublas", "--fused", "--precision", "double",
                                                      "--steps", "3"],
-            "radiosity hybrid 0.3": s1 + ["--backend", "hybrid", "--distribution", "0.3", "--steps", "3"],
-            "radiosity hybrid 0.3 --overlap": s1 + ["--backend", "hybrid", "--distribution", "0.3", "--overlap",
+            "radiosity cuda compressed float16": s1 + ["--backend", "cuda", "--storage", "compressed",
+                                                       "--ff-precision", "float16", "--steps", "3"],
+            "radiosity hybrid 0.3": s1d + ["--backend", "hybrid", "--distribution", "0.3", "--steps", "3"],
+            "radiosity hybrid 0.3 --overlap": s1d + ["--backend", "hybrid", "--distribution", "0.3", "--overlap",
                                                     "--steps", "3"],
             "poisson cublas1 N=64": [b("poisson"), "--backend", "cublas1", "--n", "64"],
             "poisson cublas2 N=64": [b("poisson"), "--backend", "cublas2", "--n", "64"],
@@ -198,7 +201,7 @@ class Driver:
         # Shared memory: the radiosity AOS tiles and block sums (cuda; hybrid runs the same kernels), Poisson's
         # one-sweep rings and block sums at N = 300 (partial tiles in both directions), its classic dots, stream's.
         shared = {
-            "radiosity cuda (tiles, block sums)": s1 + ["--backend", "cuda", "--steps", "2"],
+            "radiosity cuda (tiles, block sums)": s1d + ["--backend", "cuda", "--steps", "2"],
             "poisson cuda one-sweep N=300": [b("poisson"), "--backend", "cuda", "--n", "300", "--max-iter", "4"],
             "poisson cuda classic N=300": [b("poisson"), "--backend", "cuda", "--variant", "classic", "--n", "300",
                                            "--max-iter", "4"],
@@ -211,17 +214,23 @@ class Driver:
                                   [Cmd([san or "compute-sanitizer", "--tool", tool, "--error-exitcode", "9",
                                         *argv, "--quiet"], text_check=sanitizer_clean)]))
         # Every GPU configuration against float64 on scenes 1 and 2 (the program's check, verify.agreed).
-        configs = {"cuda": ["--backend", "cuda"], "cuda double": ["--backend", "cuda", "--precision", "double"],
-                   "cublas": ["--backend", "cublas"], "cublas --fused": ["--backend", "cublas", "--fused"],
+        dense = ["--storage", "dense"]
+        configs = {"cuda": ["--backend", "cuda", *dense], "cuda double": ["--backend", "cuda", "--precision", "double", *dense],
+                   "cublas": ["--backend", "cublas", *dense], "cublas --fused": ["--backend", "cublas", "--fused", *dense],
                    "hybrid 0": ["--backend", "hybrid", "--distribution", "0"],
                    "hybrid 0.3": ["--backend", "hybrid", "--distribution", "0.3"],
                    "hybrid 0.3 --overlap": ["--backend", "hybrid", "--distribution", "0.3", "--overlap"],
                    "hybrid 1": ["--backend", "hybrid", "--distribution", "1"]}
-        for k, ff, est in ((1, ff1, 9), (2, ff2, 16)):
+        # the sparse storages on scene 1 (the budget holds no more): cuSPARSE for csr float32, our warp-per-row
+        # kernel for compressed
+        sparse = {"cuda csr": ["--backend", "cuda", "--storage", "csr"],
+                  "cuda compressed": ["--backend", "cuda", "--storage", "compressed"],
+                  "cublas csr": ["--backend", "cublas", "--storage", "csr"]}
+        for k, ff, est in ((1, ff1, 12), (2, ff2, 16)):  # about 1 s a configuration on scene 1, 2 s on scene 2
             steps.append(Step(f"every GPU backend against float64 on scene {k}", "correctness", est,
                               [Cmd([b("radiosity"), "solve", scene(k), "--ff", str(ff), "--tol", "1e-6", *args],
                                    "gpu-correctness", f"kit/agree/scene{k}/{name}", converged_and_agreed, True)
-                               for name, args in configs.items()]))
+                               for name, args in {**configs, **(sparse if k == 1 else {})}.items()]))
         for n, est in ((256, 5), (1024, 8)):
             steps.append(Step(f"Poisson GPU backends against the CPU at N = {n}", "correctness", est,
                               [Cmd([b("poisson"), "--backend", be, *extra, "--n", str(n)],
@@ -441,7 +450,7 @@ def run(d, steps):
         d.say(f"cuBLAS 13 from {how}")
     else:
         d.say(f"no cuBLAS 13 found ({how}): the programs cannot start")
-        print("gpu-kit: no GPU usable: cuBLAS 13 (libcublas.so.13, libcublasLt.so.13) not found; set CUDA_HOME",
+        print("gpu-kit: no GPU usable: cuBLAS 13 and cuSPARSE (" + ", ".join(libs.CUBLAS_SONAMES) + ") not found; set CUDA_HOME",
               file=sys.stderr)
         return 3
     bad = {b.name: libs.problems(b, KIT, d.env) for b in sorted((KIT / "bin").iterdir())}

@@ -1,8 +1,8 @@
 """Which shared libraries a kit binary may take from the node, and ldd's answer parsed.
 
 A kit carries every library its binaries need except these: the C library and its parts, the GCC runtime
-(libstdc++, libgcc_s, libgomp: the node has gcc), and CUDA's (cuBLAS from the node's toolkit or the nvidia-cublas
-Python package, the driver's libcuda). CUDA's runtime is linked statically, so libcudart is not among them."""
+(libstdc++, libgcc_s, libgomp: the node has gcc), and CUDA's (cuBLAS and cuSPARSE, with cuSPARSE's nvJitLink, from
+the node's toolkit or the nvidia CUDA 13 Python packages, the driver's libcuda). CUDA's runtime is linked statically, so libcudart is not among them."""
 import os
 import re
 import subprocess
@@ -10,8 +10,9 @@ import subprocess
 # Library names (the part before ".so") a kit binary may resolve outside the kit.
 SYSTEM = ("linux-vdso", "linux-gate", "ld-linux-x86-64", "ld-linux-aarch64", "libc", "libm", "libdl", "librt",
           "libpthread", "libutil", "libresolv", "libmvec", "libstdc++", "libgcc_s", "libgomp")
-CUDA = ("libcublas", "libcublasLt", "libcuda", "libnvidia-ml", "libnvidia-ptxjitcompiler")
-CUBLAS_SONAMES = ("libcublas.so.13", "libcublasLt.so.13")
+CUDA = ("libcublas", "libcublasLt", "libcusparse", "libnvJitLink", "libcuda", "libnvidia-ml", "libnvidia-ptxjitcompiler")
+# The CUDA libraries the binaries link dynamically, all found in one folder (the solver's csr product is cuSPARSE's).
+CUBLAS_SONAMES = ("libcublas.so.13", "libcublasLt.so.13", "libcusparse.so.12", "libnvJitLink.so.13")
 DEFAULT_TOOLKIT = "/usr/local/cuda"
 
 
@@ -84,7 +85,7 @@ def cublas_candidates(environ):
 
 
 def find_cublas(environ=None):
-    """(folder, how it was found) of the first candidate that has both libcublas.so.13 and libcublasLt.so.13, or
+    """(folder, how it was found) of the first candidate that has every one of CUBLAS_SONAMES, or
     (None, what was searched)."""
     environ = os.environ if environ is None else environ
     cands = cublas_candidates(environ)

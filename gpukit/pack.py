@@ -129,7 +129,8 @@ def fill(a, kit):
         "nvcc": nvcc.stdout.strip().splitlines()[-1] if nvcc.returncode == 0 else "unknown",
         "libraries_carried": {k: v for k, v in sorted(carried.items())},
         "libraries_from_the_node": "glibc, libstdc++, libgcc_s, libgomp, cuBLAS 13 (libcublas.so.13, "
-                                   "libcublasLt.so.13), the driver's libcuda",
+                                   "libcublasLt.so.13), cuSPARSE (libcusparse.so.12, libnvJitLink.so.13), the "
+                                   "driver's libcuda",
         "bytes": total,
         "files": files,
     }

@@ -8,6 +8,7 @@
 #include "common/memory.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/solve_verify.hpp"
+#include "radiosity/solve/cpu/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix_file.hpp"
 #include "radiosity/solve/storage/storage_choice.hpp"
 #ifdef HAVE_MPI
@@ -131,14 +132,16 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
   };
   L.kept = L.sparse_file ? L.matrix->kept() : kept_at(a.threshold);
   *dropped = !L.sparse_file && a.threshold > 0 && L.kept != kept_at(0);
-  *bridges = L.sparse_file            ? L.matrix->bridges()
-             : p.backend->any_storage ? count_bridges(sys.F, L.n, sys.reflectivity, a.threshold)
-                                      : 0;
+  uint64_t counts[2] = {0, 0};  // bridges, rows needed
+  if (!L.sparse_file && reads_storage(*p.backend, FFStorage::compressed, p.values))
+    counts[0] = count_bridges(sys.F, L.n, sys.reflectivity, a.threshold, L.block.begin, L.block.end);
+  for (size_t i = L.block.begin; i < L.block.end; ++i) counts[1] += row_needed(sys.reflectivity[i]);
+  hpcgi::comm::sum(counts, 2);
+  *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[0]);
   if (L.sparse_file) return L.matrix->view().storage;
   if (p.storage) return *p.storage;
-  size_t rows_needed = 0;
-  for (size_t i = L.block.begin; i < L.block.end; ++i) rows_needed += row_needed(sys.reflectivity[i]);
-  return fewest_bytes_storage(readable_storages(*p.backend), p.values, StorageCounts{L.n, L.kept, *bridges, rows_needed});
+  return fewest_bytes_storage(readable_storages(*p.backend, p.values), p.values,
+                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[1])});
 }
 
 // The dense file's values in the run's storage and precision (the dense values are given back).
@@ -166,6 +169,83 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
   L.sys.stored = L.matrix->view();
 }
 
+#ifdef HAVE_MPI
+// The entries row i of a rank's dense block takes in `storage` (its kept values, and compressed's bridges), in
+// every row of the block; 0 for the other rows.
+std::vector<uint64_t> row_entries(const LoadedSolve& L, FFStorage storage, double threshold) {
+  std::vector<uint64_t> entries(L.n, 0);
+  const float* F = L.ff.values.data();
+  const auto& rho = L.sys.reflectivity;
+#pragma omp parallel for schedule(dynamic, 64)
+  for (size_t i = L.block.begin; i < L.block.end; ++i) {
+    const float* Fi = F + (i - L.block.begin) * L.n;
+    entries[i] = count_kept(Fi, L.n, rho, threshold, i, i + 1) +
+                 (storage == FFStorage::compressed ? count_bridges(Fi, L.n, rho, threshold, i, i + 1) : 0);
+  }
+  return entries;
+}
+
+// Backend mpi in a storage other than dense float32: each rank's rows in that storage, built from the dense file's
+// rows. A csr or compressed rank's rows are balanced by entries (csr_kernels.hpp's cost of a row: its entries and
+// kRowCost), not by count: the rows are counted in the blocks of equal count that were read, the ranks' counts
+// summed, the blocks split again, and each rank reads its new block (the file a second time) and builds its
+// matrix from it. The float16 scale is every rank's largest value, so that every rank rounds as one process.
+// --max-memory-per-rank is checked again here on the new blocks: the dense rows a rank reads and its matrix are
+// held at once while it is built.
+void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+  const size_t n = L.n;
+  FFMatrixOptions opt;
+  opt.storage = L.storage;
+  opt.values = p.values;
+  opt.threshold = a.threshold;
+  opt.largest = float(hpcgi::comm::max(double(largest_abs(L.ff.values.data(), L.block.rows() * n))));
+  if (L.storage != FFStorage::dense) {
+    std::vector<uint64_t> entries = row_entries(L, L.storage, a.threshold);
+    hpcgi::comm::sum(entries.data(), int(n));
+    std::vector<uint64_t> work(n);
+    for (size_t i = 0; i < n; ++i) work[i] = entries[i] + kRowCost;
+    const double v = double(value_bytes(p.values)) + (L.storage == FFStorage::csr ? 4.0 : 2.0);
+    const NeedsAt needs = [&](int ranks) {
+      const std::vector<size_t> b = dist::split_by_work(work, ranks);
+      std::vector<RankNeed> out;
+      for (int r = 0; r < ranks; ++r) {
+        uint64_t e = 0;
+        for (size_t i = b[r]; i < b[r + 1]; ++i) e += entries[i];
+        const double dense = 4.0 * double(b[r + 1] - b[r]) * double(n);  // read, and held while it is built
+        out.push_back({b[r + 1] - b[r], double(e) * v + 8.0 * double(n + 1), dense + vector_bytes(n)});
+      }
+      return out;
+    };
+    require_memory_per_rank(p.limit, needs, p.ranks,
+                            "a solve of " + L.patches + " in " + to_string(L.storage) + " " + to_string(p.values),
+                            "bin/radiosity solve ... --backend mpi");
+    L.rank_needs = needs(p.ranks);
+    const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
+    if (block.begin != L.block.begin || block.end != L.block.end) {
+      std::vector<float>().swap(L.ff.values);  // the rows read before: counted, no longer needed
+      dist::FileStats st;
+      L.ff = dist::load_form_factor_rows(a.ff, L.m, block, &st);
+      L.rank_read_s += st.io_s;
+      L.rank_checksum_s += st.checksum_s;
+      L.rank_chain_s += st.chain_s;
+      L.block = block;
+    }
+  }
+  L.matrix = hpcgi::comm::agreed([&] {
+    return std::make_unique<FormFactorMatrix>(L.ff.values.data(), n, L.sys.reflectivity, opt, L.block.begin,
+                                              L.block.end);
+  });
+  std::vector<float>().swap(L.ff.values);
+  L.sys.F = nullptr;
+  L.sys.stored = L.matrix->view();
+  L.sys.rows_begin = L.block.begin;
+  L.sys.rows_end = L.block.end;
+  double bytes = L.matrix->bytes();
+  hpcgi::comm::sum(&bytes, 1);
+  L.matrix_storage_bytes = bytes;  // all ranks together
+}
+#endif
+
 // The run's form factors: threshold, storage and precision (the error reference before they are rounded, where
 // it is due then: solve_reference_at).
 void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
@@ -185,14 +265,20 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
     if (dropped) apply_threshold(L.ff.values.data(), L.n, a.threshold, L.block.rows());
   } else if (L.sparse_file) {
     L.matrix_storage_bytes = L.matrix->bytes();
+  } else if (p.dist) {
+#ifdef HAVE_MPI
+    build_rank_matrix(a, p, L);
+#endif
   } else {
     convert_dense(a, p, L, bridges);
     L.matrix_storage_bytes = L.matrix->bytes();
   }
   size_t rows_without_reflection = 0;
   for (const Rgb& rho : L.sys.reflectivity) rows_without_reflection += !row_needed(rho);
-  // The backends that read any storage skip those rows, and mpi (the same product); the others compute them.
-  L.skipped_rows = p.backend->any_storage || p.backend->distributed ? rows_without_reflection : 0;
+  // The backends that read any storage skip those rows, and mpi (the same product), and a sparse storage holds none
+  // of them; the others compute them.
+  L.skipped_rows =
+      p.backend->any_storage || p.backend->distributed || L.storage != FFStorage::dense ? rows_without_reflection : 0;
   if (p.cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
     hpcgi::require_host_memory("backend original's cache lines for " + L.patches,
                                16.0 * (double(L.kept) + double(rows_without_reflection) * double(L.n)));

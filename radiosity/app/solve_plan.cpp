@@ -6,6 +6,7 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/files.hpp"
+#include "radiosity/solve/storage/storage_choice.hpp"
 
 namespace radiosity::app {
 namespace {
@@ -29,7 +30,10 @@ void check_backend_reads(const SolveArgs& a, const SolvePlan& p) {
   if (b.distributed && !a.reference_ff.empty())
     throw hpcgi::UsageError("--reference-ff is read by one process; backend mpi takes its error reference from "
                             "--ff (solve the finer mesh with serial or openmp)");
-  require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
+  if (p.storage)
+    require_storage(b, *p.storage, p.values);
+  else if (readable_storages(b, p.values).empty())  // auto: no storage of these values at all
+    require_storage(b, FFStorage::dense, p.values);
 }
 
 }  // namespace
@@ -64,9 +68,10 @@ SolvePlan plan_solve(const SolveArgs& a) {
 
 void plan_sparse_file(const SolveArgs& a, const SolveBackend& b, const FormFactorFileInfo& info) {
   const std::string file = "--ff '" + a.ff + "' holds " + info.storage + " " + info.precision + " form factors";
-  if (!b.any_storage)
+  if (!reads_storage(b, parse_ff_storage(info.storage), parse_ff_values(info.precision)) || b.distributed)
     throw hpcgi::UsageError(file + ": backend '" + b.name + "' reads dense float32 files only (write the file with "
-                            "formfactors --storage dense)");
+                            "formfactors --storage dense" +
+                            (b.distributed ? "; each rank builds its rows' storage from it" : "") + ")");
   if (a.storage != "auto" && a.storage != info.storage)
     throw hpcgi::UsageError(file + ", not " + a.storage + ": give --storage auto or " + info.storage);
   if (a.ff_precision != info.precision)

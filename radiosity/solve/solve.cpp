@@ -113,16 +113,22 @@ const std::vector<SolveBackend>& solve_backends() {
        kAll, kAosSoa, kBoth, true, true, "",
        run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
       {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
-       kJacobiBicgstab, {Layout::aos}, kBoth, true, GPU_BACKEND(make_cuda)},
-      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot",
-       kJacobiBicgstab, {Layout::soa}, kBoth, true, GPU_BACKEND(make_cublas)},
+       kJacobiBicgstab, {Layout::aos}, kBoth, true, GPU_BACKEND(make_cuda), false, false, false, true},
+      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
+                 "csr float32 by cuSPARSE",
+       kJacobiBicgstab, {Layout::soa}, kBoth, true, GPU_BACKEND(make_cublas), false, false, false, true},
       {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
        {Method::jacobi}, {Layout::aos}, kBoth, true, GPU_BACKEND(make_hybrid)},
       {"mpi", "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
               "after every product (MPI_Allgatherv), dots by MPI_Allreduce",
-       kJacobiBicgstab, kAosSoa, kBoth, true, MPI_BACKEND, false, true, true},
+       kJacobiBicgstab, kAosSoa, kBoth, true, MPI_BACKEND, true, true, true},
   };
   return list;
+}
+
+bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
+  if (b.any_storage || (storage == FFStorage::dense && values == FFValues::float32)) return true;
+  return b.sparse_storage && storage != FFStorage::dense;
 }
 
 const SolveBackend* find_backend(const std::string& name) {
@@ -197,12 +203,12 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
 }
 
 void require_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
-  if (b.any_storage || (storage == FFStorage::dense && values == FFValues::float32)) return;
+  if (reads_storage(b, storage, values)) return;
   std::string which;
   for (const SolveBackend& x : solve_backends())
-    if (x.any_storage) which += (which.empty() ? "" : ", ") + x.name;
-  throw hpcgi::UsageError("backend '" + b.name + "' reads dense float32 form factors only, not " + to_string(storage) +
-                          " " + to_string(values) + " (" + which + " read any storage)");
+    if (reads_storage(x, storage, values)) which += (which.empty() ? "" : ", ") + x.name;
+  throw hpcgi::UsageError("backend '" + b.name + "' does not read " + to_string(storage) + " " + to_string(values) +
+                          " form factors (" + which + " do)");
 }
 
 std::vector<Rgb> start_vector(const System& sys, Start start) {

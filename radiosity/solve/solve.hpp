@@ -105,8 +105,12 @@ struct SolveBackend {
   bool any_storage = false;  // reads F in any storage (System::stored); the others need dense float32 F
   bool one_channel = false;  // solves a grey system as one channel
   bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
+  bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
 };
 const std::vector<SolveBackend>& solve_backends();
+
+// Whether backend b reads F stored so (any_storage, sparse_storage; dense float32 every backend reads).
+bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values);
 
 // Whether this run solves one channel: cfg.channels is auto, the system is grey and the backend can.
 bool solve_one_channel(const System& sys, const SolveConfig& cfg);
@@ -123,8 +127,8 @@ const SolveBackend& require_backend(const std::string& name);
 // which solve() applies too and an application applies first to refuse a request early.
 void check_config(const SolveConfig& cfg);
 
-// Throws hpcgi::UsageError where backend b does not read form factors stored so (the backends without any_storage
-// read dense float32 only): the rule solve() applies to a system, and an application to a request.
+// Throws hpcgi::UsageError where backend b does not read form factors stored so (reads_storage), naming the backends
+// that do: the rule solve() applies to a system, and an application to a request.
 void require_storage(const SolveBackend& b, FFStorage storage, FFValues values);
 
 // Throws hpcgi::UsageError for a bad system or configuration (unknown backend; unsupported method, layout,

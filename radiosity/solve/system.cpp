@@ -104,15 +104,14 @@ Rgb residual_squares(const System& sys, const std::vector<Rgb>& B) {
   if (B.size() != sys.n) throw hpcgi::UsageError("relative_residual: B has the wrong size");
   const size_t first = holds_all_rows(sys) ? 0 : sys.rows_begin, last = holds_all_rows(sys) ? sys.n : sys.rows_end;
   const FFMatrixView F = system_matrix(sys);
-  if (first != 0 && F.storage != FFStorage::dense)
-    throw hpcgi::UsageError("relative_residual: a rank's block of rows is held dense only");
   const auto* f32 = static_cast<const float*>(F.data);
   const auto* u16 = static_cast<const uint16_t*>(F.data);
   double r0 = 0, r1 = 0, r2 = 0;
 #pragma omp parallel for schedule(static) reduction(+ : r0, r1, r2)
   for (size_t i = first; i < last; ++i) {
     const Rgb& rho = sys.reflectivity[i];
-    const size_t local = i - first;  // row i of F as the system holds it
+    // Row i of F as the system holds it: a dense block from its first row on, a sparse matrix by every row.
+    const size_t local = F.storage == FFStorage::dense ? i - first : i;
     Rgb s{0, 0, 0};
     if (row_needed(rho)) {  // a patch with reflectivity 0 takes nothing from F (B_i = E_i)
       switch (F.values) {

@@ -15,12 +15,13 @@ struct System {
   const float* F = nullptr;        // n×n row-major, F[i*n + j], F_ii = 0; not owned (it comes from the form-factor file)
   // F in another storage (csr, 16-bit values: ff_matrix.hpp), not owned. When set (stored.n = n; its data may be
   // null for a CSR matrix that keeps nothing) it is the system's matrix, F may be null, and only the backends
-  // that read any storage (serial, openmp) run it.
+  // that read it run it (SolveBackend::storages).
   FFMatrixView stored;
   std::vector<Rgb> emission;       // E, n entries
   std::vector<Rgb> reflectivity;   // ρ, n entries
   std::vector<Rgb> initial;        // B0, n entries (RRV: rrv_initial_radiosity)
-  // An MPI rank's system (backend mpi): F holds only rows [rows_begin, rows_end), row i at F + (i - rows_begin)·n;
+  // An MPI rank's system (backend mpi): F holds only rows [rows_begin, rows_end), row i at F + (i - rows_begin)·n
+  // (so does a dense `stored`; a csr or compressed one indexes every row, the others empty: ff_matrix.hpp);
   // the vectors are whole. rows_end = SIZE_MAX: F holds every row.
   size_t rows_begin = 0, rows_end = SIZE_MAX;
 };

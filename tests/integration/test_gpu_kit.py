@@ -17,9 +17,10 @@ from conftest import ROOT, gpu_absent_reason, run
 
 KIT = ROOT / "build" / "gpu-kit"
 CLEAN = {"PATH": "/usr/bin:/bin"}  # env -i PATH=/usr/bin:/bin
-# What a kit binary may take from the node: glibc's parts, the GCC runtime, cuBLAS and the driver.
+# What a kit binary may take from the node: glibc's parts, the GCC runtime, cuBLAS, cuSPARSE (and its nvJitLink)
+# and the driver.
 ALLOWED = re.compile(r"^(linux-vdso|ld-linux-x86-64|libc|libm|libdl|librt|libpthread|libstdc\+\+|libgcc_s|libgomp|"
-                     r"libcublas|libcublasLt|libcuda)\.so")
+                     r"libcublas|libcublasLt|libcusparse|libnvJitLink|libcuda)\.so")
 GPU_CASE = re.compile(r"--backend (cublas1|cublas2|cuda|cublas|hybrid)(\s|$)")
 
 
@@ -336,13 +337,13 @@ def test_cublas_comes_from_the_toolkit_first_else_from_the_nvidia_cublas_package
     pkg = site / "nvidia" / "cublas" / "lib"
     for d in (toolkit / "lib64", pkg):
         d.mkdir(parents=True)
-        for so in ("libcublas.so.13", "libcublasLt.so.13"):
+        for so in libs.CUBLAS_SONAMES:
             (d / so).write_bytes(b"")
     monkeypatch.setattr(libs, "DEFAULT_TOOLKIT", str(tmp_path / "no-cuda"))
     monkeypatch.setattr(sys, "path", [str(site)] + sys.path)
     assert libs.find_cublas({"CUDA_HOME": str(toolkit)}) == (str(toolkit / "lib64"), "the CUDA toolkit (CUDA_HOME/lib64)")
     where, how = libs.find_cublas({})
     assert where == str(pkg) and "nvidia-cublas Python package" in how
-    (pkg / "libcublasLt.so.13").unlink()  # both libraries, or it is not cuBLAS 13
+    (pkg / "libcusparse.so.12").unlink()  # every library, or the binaries would not load
     where, how = libs.find_cublas({})
     assert where is None and how.startswith("searched ")

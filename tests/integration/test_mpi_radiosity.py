@@ -133,8 +133,8 @@ def test_mpi_backend_equals_one_process(files, openmp_answers, ranks, method, la
     writer = {1: 3, 2: 1, 3: 4, 4: 2}[ranks]  # read a file written by another number of ranks
     o = tmp_path / "mpi.xml"
     rec = record(radiosity("solve", out["scene"], "--ff", out[writer][0], "--method", method,
-                           "--layout", layout, "--tol", "1e-6", "--backend", "mpi", "--output", o, "--json", "--quiet",
-                           np_=ranks))
+                           "--layout", layout, "--tol", "1e-6", "--backend", "mpi", "--storage", "dense", "--output", o,
+                           "--json", "--quiet", np_=ranks))
     ref, b_ref = openmp_answers[method, layout]
     b = radiosities(o)
     assert rel_diff(b, b_ref) <= 1e-6
@@ -165,8 +165,8 @@ def test_jacobi_fixed_steps_give_the_same_bits_on_any_ranks(files, tmp_path):
         o = tmp_path / f"{ranks}.xml"
         args = ["solve", out["scene"], "--ff", out["serial"][0], "--steps", "20", "--precision",
                 "double", "--output", o, "--json", "--quiet", "--no-verify"]
-        record(radiosity(*args, "--backend", "openmp", "--storage", "dense") if ranks is None else radiosity(*args, "--backend", "mpi",
-                                                                                        np_=ranks))
+        record(radiosity(*args, "--backend", "openmp", "--storage", "dense") if ranks is None else
+               radiosity(*args, "--backend", "mpi", "--storage", "dense", np_=ranks))
         answers.append(radiosities(o))
     assert np.array_equal(answers[0], answers[1])
 
@@ -185,6 +185,104 @@ def test_grey_scene_is_solved_as_one_channel_across_ranks(tmp_path):
         assert rec["result"]["channels"] == 1
         outs[ranks] = radiosities(o)
     assert rel_diff(outs[3], outs[None]) <= 1e-6
+
+
+SPARSE = [("csr", "float32"), ("compressed", "float32"), ("compressed", "float16")]
+
+
+@pytest.fixture(scope="module")
+def serial_sparse(files):
+    """Backend serial's answers in the sparse storages: 20 fixed Jacobi steps in float (AOS), and Jacobi and
+    BiCG-STAB to 1e-6 (SOA)."""
+    d, out = files
+    answers = {}
+    for storage, values in SPARSE:
+        for kind, args in (("steps", ["--steps", "20", "--layout", "aos", "--no-verify"]),
+                           ("jacobi", ["--tol", "1e-6", "--layout", "soa"]),
+                           ("bicgstab", ["--method", "bicgstab", "--tol", "1e-6", "--layout", "soa"])):
+            o = d / f"serial-{storage}-{values}-{kind}.xml"
+            rec = record(radiosity("solve", out["scene"], "--ff", out["serial"][0], "--backend", "serial",
+                                   "--storage", storage, "--ff-precision", values, *args, "--output", o, "--json",
+                                   "--quiet"))
+            assert rec["params"]["storage"] == storage
+            answers[storage, values, kind] = (rec, radiosities(o))
+    return answers
+
+
+def sparse_bytes_per_entry(storage, values):
+    return (4 if values == "float32" else 2) + (4 if storage == "csr" else 2)
+
+
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4])
+@pytest.mark.parametrize("storage,values", SPARSE)
+def test_mpi_sparse_storage_gives_serial_answer_rows_balanced_by_entries(files, serial_sparse, ranks, storage, values,
+                                                                          tmp_path):
+    """Each rank builds its rows in csr or compressed from its rows of the dense file and runs the CPU's sparse
+    product on them: fixed Jacobi steps are serial's bits (a row's sum is the same code on any rank, the float16
+    scale every rank's largest value); to a tolerance, within 1e-6 (the dots add in another order). The ranks' rows
+    are balanced by entries, and the record says the bytes of F each holds in that storage."""
+    _, out = files
+    writer = {1: 2, 2: 4, 3: 1, 4: 3}[ranks]
+    o = tmp_path / "steps.xml"
+    rec = record(radiosity("solve", out["scene"], "--ff", out[writer][0], "--backend", "mpi", "--storage", storage,
+                           "--ff-precision", values, "--steps", "20", "--layout", "aos", "--no-verify", "--output", o,
+                           "--json", "--quiet", np_=ranks))
+    assert np.array_equal(radiosities(o), serial_sparse[storage, values, "steps"][1])
+    assert rec["params"]["storage"] == storage
+    n = rec["params"]["patches"]
+    mpi = rec["mpi"]
+    rows, held = mpi["rank_rows"], mpi["rank_ff_bytes"]
+    assert sum(rows) == n and len(held) == ranks
+    entries = [(b - 8 * (n + 1)) / sparse_bytes_per_entry(storage, values) for b in held]
+    assert all(e == int(e) and e >= 0 for e in entries), entries
+    # what one product reads on all ranks together: serial's entries of the same storage
+    assert sum(entries) * sparse_bytes_per_entry(storage, values) + 8 * (n + 1) == pytest.approx(
+        serial_sparse[storage, values, "steps"][0]["perf"]["matrix_bytes"])
+    # balanced by entries (a row's cost: its entries and 8, csr_kernels.hpp), each block within one row of its share
+    cost = [e + 8 * r for e, r in zip(entries, rows)]
+    assert max(cost) <= sum(cost) / ranks + n + 8, (cost, rows)
+    for method, layout in (("jacobi", "soa"), ("bicgstab", "soa")):
+        o = tmp_path / f"{method}.xml"
+        rec = record(radiosity("solve", out["scene"], "--ff", out[writer][0], "--backend", "mpi", "--storage", storage,
+                               "--ff-precision", values, "--method", method, "--tol", "1e-6", "--layout", layout,
+                               "--output", o, "--json", "--quiet", np_=ranks))
+        ref, b_ref = serial_sparse[storage, values, method]
+        assert rel_diff(radiosities(o), b_ref) <= 1e-6
+        assert rec["result"]["status"] == "converged" and rec["verify"]["agreed"] is True
+
+
+def test_mpi_auto_takes_a_sparse_storage_where_it_reads_fewer_bytes(files):
+    """--storage auto on mpi chooses as serial does (the counts are every rank's together)."""
+    _, out = files
+    picks = []
+    for np_, backend in ((None, "serial"), (3, "mpi")):
+        rec = record(radiosity("solve", out["scene"], "--ff", out["serial"][0], "--backend", backend, "--steps", "2",
+                               "--no-verify", "--json", "--quiet", np_=np_))
+        picks.append(rec["params"]["storage"])
+    assert picks[0] == picks[1], picks
+
+
+def test_mpi_memory_check_counts_the_sparse_storage(files, tmp_path):
+    """--max-memory-per-rank with csr: what a rank needs is its dense rows while its matrix is built and that
+    matrix (the record's rank_need_bytes); a byte less is refused on every rank with one line, exit 2."""
+    _, out = files
+    args = ["solve", out["scene"], "--ff", out["serial"][0], "--backend", "mpi", "--storage", "csr", "--steps", "2",
+            "--no-verify", "--json", "--quiet"]
+    need = record(radiosity(*args, np_=2))["mpi"]["rank_need_bytes"]
+    ok = record(radiosity(*args, "--max-memory-per-rank", str(int(max(need))), np_=2))
+    assert ok["mpi"]["rank_need_bytes"] == need
+    p = radiosity(*args, "--max-memory-per-rank", str(int(max(need)) - 1), np_=2)
+    assert p.returncode == 2, p.stderr
+    lines = messages(p)
+    assert len(lines) == 1 and "in csr float32" in lines[0] and "more than --max-memory-per-rank" in lines[0], lines
+
+
+def test_mpi_refuses_a_sparse_file(files, tmp_path):
+    _, out = files
+    f = tmp_path / "csr.ff"
+    record(radiosity("formfactors", out["scene"], *HEMICUBE, "-o", f, "--storage", "csr", "--json", "--quiet"))
+    p = radiosity("solve", out["scene"], "--ff", f, "--backend", "mpi", "--steps", "2", np_=2)
+    assert p.returncode == 2 and "each rank builds its rows' storage" in p.stderr, p.stderr
 
 
 def test_only_rank_0_writes(files, tmp_path):
@@ -253,8 +351,8 @@ def test_too_large_for_one_rank_is_computed_and_solved_on_four(large, tmp_path):
     _, ff, rec_ff = large
     assert max(rec_ff["mpi"]["rank_need_bytes"]) <= 16 * 2**20 and rec_ff["mpi"]["max_memory_per_rank"] == 16 * 2**20
     o, ref = tmp_path / "mpi.xml", tmp_path / "omp.xml"
-    rec = record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "mpi", *LIMIT, "--tol", "1e-6",
-                           "--output", o, "--json", "--quiet", np_=4))
+    rec = record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "mpi", "--storage", "dense", *LIMIT,
+                           "--tol", "1e-6", "--output", o, "--json", "--quiet", np_=4))
     record(radiosity("solve", SCENES / "scene2.xml", "--ff", ff, "--backend", "openmp", "--storage", "dense", "--tol", "1e-6",
                      "--output", ref, "--json", "--quiet"))
     assert rel_diff(radiosities(o), radiosities(ref)) <= 1e-6

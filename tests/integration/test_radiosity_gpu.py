@@ -11,14 +11,21 @@ from conftest import BIN, ROOT, built_backends, gpu_absent_reason, run
 
 SCENES = ROOT / "radiosity" / "scenes"
 
+# The dense product of each backend (--storage dense: auto would take a sparse storage on cuda and cublas), and the
+# sparse storages on cuda and cublas: csr float32 by cuSPARSE, the others by our warp-per-row kernel.
 GPU_RUNS = {
-    "cuda": ["--backend", "cuda"],
-    "cublas": ["--backend", "cublas"],
-    "cublas-fused": ["--backend", "cublas", "--fused"],
+    "cuda": ["--backend", "cuda", "--storage", "dense"],
+    "cublas": ["--backend", "cublas", "--storage", "dense"],
+    "cublas-fused": ["--backend", "cublas", "--fused", "--storage", "dense"],
     "hybrid-0": ["--backend", "hybrid", "--distribution", "0"],
     "hybrid-0.3": ["--backend", "hybrid", "--distribution", "0.3"],
     "hybrid-0.3-overlap": ["--backend", "hybrid", "--distribution", "0.3", "--overlap"],
     "hybrid-1": ["--backend", "hybrid", "--distribution", "1"],
+    "cuda-csr": ["--backend", "cuda", "--storage", "csr"],
+    "cuda-compressed": ["--backend", "cuda", "--storage", "compressed"],
+    "cuda-compressed-float16": ["--backend", "cuda", "--storage", "compressed", "--ff-precision", "float16"],
+    "cublas-csr": ["--backend", "cublas", "--storage", "csr"],
+    "cublas-compressed-bfloat16": ["--backend", "cublas", "--storage", "compressed", "--ff-precision", "bfloat16"],
 }
 
 
@@ -73,7 +80,7 @@ def test_gpu_backend_agrees_with_the_float64_reference(scene1, requires_gpu, nam
         assert rec["params"]["overlap"] == ("--overlap" in GPU_RUNS[name])
 
 
-@pytest.mark.parametrize("name", ["cuda", "cublas", "cublas-fused"])
+@pytest.mark.parametrize("name", ["cuda", "cublas", "cublas-fused", "cuda-csr", "cublas-csr", "cuda-compressed"])
 def test_gpu_bicgstab_converges_and_agrees(scene1, requires_gpu, name):
     rec = record(solve(scene1, *GPU_RUNS[name], "--method", "bicgstab", "--tol", "1e-6", "--json", "--quiet"))
     assert rec["result"]["status"] == "converged", rec["result"]
@@ -87,7 +94,7 @@ def test_cublas_runs_soa_without_being_told(scene1, requires_gpu):
 
 def test_hybrid_ends_write_what_openmp_and_cuda_write(scene1, requires_gpu, tmp_path):
     out = {}
-    for name, args in {"openmp": ["--backend", "openmp"], "cuda": GPU_RUNS["cuda"],
+    for name, args in {"openmp": ["--backend", "openmp", "--storage", "dense"], "cuda": GPU_RUNS["cuda"],
                        "hybrid-0": GPU_RUNS["hybrid-0"], "hybrid-1": GPU_RUNS["hybrid-1"]}.items():
         path = tmp_path / f"{name}.xml"
         p = solve(scene1, *args, "--steps", "32", "--threads", "2", "--output", path, "--quiet")
@@ -95,6 +102,22 @@ def test_hybrid_ends_write_what_openmp_and_cuda_write(scene1, requires_gpu, tmp_
         out[name] = radiosities(path)
     assert out["hybrid-0"] == out["openmp"]
     assert out["hybrid-1"] == out["cuda"]
+
+
+@pytest.mark.parametrize("gpu,cpu", [("cuda-csr", "aos"), ("cublas-csr", "soa"), ("cuda-compressed", "aos")])
+def test_gpu_sparse_storage_gives_the_cpu_csr_answer(scene1, requires_gpu, tmp_path, gpu, cpu):
+    """The sparse products (cuSPARSE for csr float32, ours for compressed) against serial's csr, 32 Jacobi steps in
+    float: other summation orders, so within 1e-6 relative, not bits; the record names the product."""
+    out = {}
+    for name, args in {"cpu": ["--backend", "serial", "--storage", "csr", "--layout", cpu], "gpu": GPU_RUNS[gpu]}.items():
+        path = tmp_path / f"{name}.xml"
+        rec = record(solve(scene1, *args, "--steps", "32", "--output", path, "--json", "--quiet", "--no-verify"))
+        out[name] = [[float(c) for c in r.split(",")] for r in radiosities(path)]
+    assert rec["params"]["storage"] == GPU_RUNS[gpu][GPU_RUNS[gpu].index("--storage") + 1]
+    assert ("cusparse" in rec["backend_info"]["product"]) == (gpu.endswith("-csr")), rec["backend_info"]
+    worst = max(abs(a - b) for ra, rb in zip(out["gpu"], out["cpu"]) for a, b in zip(ra, rb))
+    scale = max(abs(b) for rb in out["cpu"] for b in rb)
+    assert worst <= 1e-6 * scale, (worst, scale)
 
 
 # --- on every machine ---------------------------------------------------------------------------------------------

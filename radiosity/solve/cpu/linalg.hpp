@@ -207,20 +207,21 @@ void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vect
 
 // The product for any stored matrix (ff_matrix.hpp): dispatched once per pass to the kernel of its storage and
 // values (dense here, csr and compressed in csr_kernels.hpp). The float16 scale is folded into c (a power of two:
-// exact).
+// exact). Rows [row_begin, row_end) only: an MPI rank's block (a dense F then holds those rows, from row_begin on;
+// a sparse one indexes every row).
 template <class Exec, class V>
 void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows, const V& x, V& y,
                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
-                   typename V::value_type d) {
+                   typename V::value_type d, size_t row_begin = 0, size_t row_end = SIZE_MAX) {
   using T = typename V::value_type;
   const T cs = T(double(c) * F.scale);
   auto run = [&](auto values) {
     using Val = decltype(values);
     const auto* data = static_cast<const typename Val::stored*>(F.data);
     if (F.storage == FFStorage::dense)
-      dense_matvec<Val>(ex, data, rows, x, y, rho, e, a, cs, d);
+      dense_matvec<Val>(ex, data, rows, x, y, rho, e, a, cs, d, row_begin, row_end);
     else
-      sparse_matvec<Val>(ex, F, x, y, rho, e, a, cs, d);
+      sparse_matvec<Val>(ex, F, x, y, rho, e, a, cs, d, row_begin, row_end);
   };
   switch (F.values) {
     case FFValues::float32: run(Float32Values{}); break;

@@ -172,23 +172,24 @@ __global__ void __launch_bounds__(kBlock) aos_axpby_kernel(size_t values, T a0, 
   }
 }
 
-// The vectors (slots) of all n patches as {r, g, b} records on the device, and F's first `rows` rows; every
-// operation works on patches [0, rows). Work goes to the stream in order; only a reduction's result waits.
+// The vectors (slots) of all n patches as {r, g, b} records on the device, and F's first `rows` rows (none when the
+// system's F is stored otherwise: backend cuda's sparse_device.cuh has it); every operation works on patches
+// [0, rows). Work goes to the stream in order; only a reduction's result waits.
 template <class T>
 class AosDevice {
  public:
-  // Device memory the constructor will allocate.
-  static double bytes_needed(size_t n, size_t rows, int vectors) {
-    return 4.0 * double(rows) * double(n) + double(vectors + 2) * 3.0 * double(n) * sizeof(T) +
+  // Device memory the constructor will allocate (dense: with F's rows).
+  static double bytes_needed(size_t n, size_t rows, int vectors, bool dense = true) {
+    return (dense ? 4.0 * double(rows) * double(n) : 0.0) + double(vectors + 2) * 3.0 * double(n) * sizeof(T) +
            (3.0 * kReduceBlocks + 3) * sizeof(double);
   }
 
   AosDevice(const System& sys, size_t rows, int vectors, cudaStream_t s, DeviceClock& clock)
-      : n_(sys.n), rows_(rows), s_(s), clock_(clock), F_(std::max<size_t>(1, rows * sys.n)),  // never 0 bytes
+      : n_(sys.n), rows_(rows), s_(s), clock_(clock), F_(std::max<size_t>(1, sys.F ? rows * sys.n : 0)),  // never 0 bytes
         rho_(3 * sys.n), e_(3 * sys.n),
         partial_(3 * kReduceBlocks), sum_(3), host_sum_(3) {
     clock_.timed(DeviceClock::kUpload, [&] {
-      if (rows_ > 0)
+      if (rows_ > 0 && sys.F)
         CUDA_CHECK(cudaMemcpyAsync(F_.get(), sys.F, rows_ * n_ * sizeof(float), cudaMemcpyHostToDevice, s_));
     });
     put(rho_.get(), sys.reflectivity);
@@ -201,6 +202,8 @@ class AosDevice {
 
   size_t rows() const { return rows_; }
   T* vec(int v) { return vec_.at(v)->get(); }
+  const T* rho() const { return rho_.get(); }
+  const T* e() const { return e_.get(); }
 
   void upload(int v, const std::vector<Rgb>& x) { put(vec(v), x); }
   // Patches [0, count) of slot v into x[0, count).

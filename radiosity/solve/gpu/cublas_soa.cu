@@ -8,6 +8,10 @@
 // (CUBLAS_OP_T). A channel is a column of length stride (n rounded up to 32), so the three channels of a slot are
 // an n × 3 matrix with ld = stride for the fused Sgemm.
 //
+// F in csr or compressed: the product by sparse_device.cuh (cuSPARSE's SpMM for csr float32 in float, the three
+// channels as one n × 3 column-major right-hand side with ld = stride; our warp-per-row kernel otherwise), which
+// reads F once for the three channels with or without `fused`; the dots as above.
+//
 // Double working precision: cuBLAS has no product of a float matrix with a double vector, so F is widened to
 // double on the GPU once (chunk by chunk through a float staging buffer) and Dgemv/Dgemm/Ddot run on it: the
 // CPU backends' arithmetic, double(F_ij)·x_j, all by cuBLAS, at the price of 8n² bytes of memory and traffic per
@@ -15,8 +19,11 @@
 #include <climits>
 #include <type_traits>
 
+#include <optional>
+
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/gpu/device_kernels.cuh"
+#include "radiosity/solve/gpu/sparse_device.cuh"
 
 namespace radiosity {
 namespace {
@@ -95,17 +102,26 @@ __global__ void __launch_bounds__(kBlock) widen_kernel(size_t count, const float
 template <class T>
 class CublasSoa final : public gpu::DeviceKernels<T> {
  public:
-  static double bytes_needed(size_t n, int vectors) {
-    const double nn = double(n) * double(n);
+  // Device memory the constructor allocates; dense: with F (as T), else sparse_device.cuh's.
+  static double bytes_needed(const System& sys, int vectors) {
+    const size_t n = sys.n;
+    const double nn = sparse(sys) ? 0.0 : double(n) * double(n);
     const double staging = std::is_same_v<T, double> ? 4.0 * std::min(nn, double(kWidenChunk)) : 0.0;
     return sizeof(T) * nn + staging + double(vectors + 3) * 3.0 * double(stride_for(n)) * sizeof(T) +
-           5.0 * sizeof(T) + kBlasWorkspace;
+           5.0 * sizeof(T) + kBlasWorkspace +
+           (sparse(sys) ? gpu::SparseDevice<T>::bytes_needed(sys.stored, 3 * stride_for(n)) : 0.0);
   }
+  static bool sparse(const System& sys) { return sys.stored.n && sys.stored.storage != FFStorage::dense; }
 
   CublasSoa(const System& sys, bool fused, int vectors)
       : n_(sys.n), stride_(stride_for(sys.n)), fused_(fused), blas_(this->stream_.get(), CUBLAS_POINTER_MODE_DEVICE),
-        F_(sys.n * sys.n), rho_(3 * stride_), e_(3 * stride_), p_(3 * stride_), consts_(2), res_(3), host_res_(3) {
-    upload_matrix(sys.F);
+        F_(sparse(sys) ? 1 : sys.n * sys.n), rho_(3 * stride_), e_(3 * stride_), p_(3 * stride_), consts_(2), res_(3), host_res_(3) {
+    if (sparse(sys)) {
+      sparse_.emplace(sys.stored, stride_, 1, 3 * stride_, s(), this->clock_);
+      matrix_bytes_ = gpu::SparseDevice<T>::matrix_bytes(sys.stored);
+    } else {
+      upload_matrix(sys.F);
+    }
     const T consts[2] = {1, 0};
     CUDA_CHECK(cudaMemcpyAsync(consts_.get(), consts, sizeof consts, cudaMemcpyHostToDevice, s()));
     put(rho_.get(), sys.reflectivity);  // waits, so consts may go too
@@ -130,6 +146,10 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
   void matvec(int y, int x, double a, double c, double d) override {
     const T* X = slot(x);
     T* P = p_.get();
+    if (sparse_) {
+      sparse_->matvec(X, slot(y), rho_.get(), e_.get(), T(a), T(c), T(d));
+      return;
+    }
     this->clock_.timed(DeviceClock::kCompute, [&] {
       if (fused_) {
         CUBLAS_CHECK(gemm(blas_.get(), int(n_), int(stride_), one(), F_.get(), X, zero(), P));
@@ -164,12 +184,16 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
     });
   }
   int threads() const override { return 1; }
-  double matrix_bytes() const override { return (fused_ ? 1.0 : 3.0) * sizeof(T) * double(n_) * double(n_); }
+  double matrix_bytes() const override {
+    if (sparse_) return matrix_bytes_;
+    return (fused_ ? 1.0 : 3.0) * sizeof(T) * double(n_) * double(n_);
+  }
   std::map<std::string, std::string> info() const override {
     auto i = gpu::DeviceKernels<T>::info();
     const bool f = std::is_same_v<T, float>;
     i["product"] = fused_ ? (f ? "cublasSgemm, 3 columns" : "cublasDgemm, 3 columns, F widened to double")
                           : (f ? "cublasSgemv per channel" : "cublasDgemv per channel, F widened to double");
+    if (sparse_) i["product"] = sparse_->product();
     i["dot"] = f ? "cublasSdot per channel" : "cublasDdot per channel";
     return i;
   }
@@ -230,6 +254,8 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
   hpcgi::DeviceArray<T> F_, rho_, e_, p_, consts_, res_;
   gpu::PinnedArray<T> host_res_;
   std::vector<std::unique_ptr<hpcgi::DeviceArray<T>>> vec_;
+  std::optional<gpu::SparseDevice<T>> sparse_;  // F in csr or compressed (then F_ is unused)
+  double matrix_bytes_ = 0;
 };
 
 }  // namespace
@@ -239,7 +265,9 @@ std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cf
   const std::string who = gpu::who("cublas", sys, cfg);
   hpcgi::require_gpu(who);
   if (stride_for(sys.n) > size_t(INT_MAX)) throw hpcgi::UsageError(who + ": too many patches for cuBLAS's int sizes");
-  hpcgi::require_device_memory(who, CublasSoa<T>::bytes_needed(sys.n, vectors));
+  if (!CublasSoa<T>::sparse(sys) && !sys.F)
+    throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
+  hpcgi::require_device_memory(who, CublasSoa<T>::bytes_needed(sys, vectors));
   return std::make_unique<CublasSoa<T>>(sys, cfg.fused, vectors);
 }
 template std::unique_ptr<Kernels<float>> make_cublas(const System&, const SolveConfig&, int);

@@ -1,13 +1,16 @@
 // Backend `mpi`: the shared kernels (linalg.hpp) on MPI ranks, each holding its block of rows of F (the system's
 // rows_begin..rows_end, read from the form-factor file alone: radiosity/dist/) and whole vectors, OpenMP threads
 // over its rows (--threads). Per operation:
-//   matvec  this rank's rows of y = a·x + c·ρ ⊙ (F x) + d·e, by linalg.hpp's dense product on the rank's rows; x
+//   matvec  this rank's rows of y = a·x + c·ρ ⊙ (F x) + d·e, by the host backends' product (linalg.hpp's
+//           affine_matvec: dense, or csr_kernels.hpp's for csr and compressed) on the rank's rows, in the system's
+//           storage (a rank's csr or compressed matrix indexes every row and holds only its own: ff_matrix.hpp); x
 //           must be whole, so a vector whose rows were changed since it was last whole is first gathered in place
 //           (MPI_Allgatherv of every rank's block): in Jacobi that is the radiosity after every step, in BiCG-STAB
 //           p and s (and x at a restart);
 //   dot, dist2  over this rank's rows, summed over ranks by MPI_Allreduce (3 doubles);
 //   axpby, copy  this rank's rows only (O(n/P), no communication).
-// A row's sums are those of backend openmp bit for bit (the same function for a row, whichever rank or thread);
+// A row's sums are those of backend openmp bit for bit in the same storage (the same function for a row, whichever
+// rank or thread);
 // dots and residual norms add their partial sums in another order, so results agree to rounding, not bits.
 // Per rank the record gets its rows, the bytes of F it holds, the bytes it received per iteration and the seconds
 // it spent in MPI calls and in its products (account()).
@@ -52,7 +55,7 @@ class MpiKernels final : public Kernels<T> {
       : n_(sys.n),
         first_(holds_all_rows(sys) ? 0 : sys.rows_begin),
         last_(holds_all_rows(sys) ? sys.n : sys.rows_end),
-        F_(sys.F),
+        F_(system_matrix(sys)),
         rows_(dense_rows_to_compute(sys.reflectivity)),
         ex_(threads),
         mine_(first_, last_, threads),
@@ -81,7 +84,18 @@ class MpiKernels final : public Kernels<T> {
       displs_.push_back(int(all[2 * r] * kPerRow));
     }
     whole_ = first_ == 0 && last_ == n_;
-    matrix_bytes_ = 4.0 * double(rows_.empty() ? n_ : rows_.size()) * double(n_);
+    // Bytes of F this rank holds and one product reads on all ranks together (as backend openmp reads it).
+    const double v = double(value_bytes(F_.values));
+    if (F_.storage == FFStorage::dense) {
+      held_bytes_ = v * double(last_ - first_) * double(n_);
+      matrix_bytes_ = v * double(rows_.empty() ? n_ : rows_.size()) * double(n_);
+    } else {
+      const double per_entry = v + (F_.storage == FFStorage::csr ? sizeof(int32_t) : sizeof(uint16_t));
+      double entries = double(F_.row_start[last_] - F_.row_start[first_]);
+      held_bytes_ = entries * per_entry + sizeof(int64_t) * double(n_ + 1);
+      MPI_Allreduce(MPI_IN_PLACE, &entries, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+      matrix_bytes_ = entries * per_entry + sizeof(int64_t) * double(n_ + 1);
+    }
     load(ex_, rho_, sys.reflectivity);
     load(ex_, e_, sys.emission);
     vec_ = zero_vectors<V>(ex_, n_, vectors);
@@ -99,7 +113,7 @@ class MpiKernels final : public Kernels<T> {
   void matvec(int y, int x, double a, double c, double d) override {
     gather(x);
     hpcgi::Timer t;
-    dense_matvec<Float32Values>(ex_, F_, rows_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d), first_, last_);
+    affine_matvec(ex_, F_, rows_, vec_.at(x), vec_.at(y), rho_, e_, T(a), T(c), T(d), first_, last_);
     now_.matvec_s += t.seconds();
     full_.at(y) = whole_;
   }
@@ -136,7 +150,7 @@ class MpiKernels final : public Kernels<T> {
   void account(SolveResult& res) const override {
     const double it = res.iterations > 0 ? double(res.iterations) : 1.0;
     const Traffic& m = method_;
-    const double mine[] = {double(last_ - first_), 4.0 * double(last_ - first_) * double(n_),
+    const double mine[] = {double(last_ - first_), held_bytes_,
                            m.received_bytes / it, m.comm_s, m.matvec_s};
     constexpr int kFields = sizeof mine / sizeof mine[0];
     std::vector<double> all(size_t(kFields) * size_t(size_));
@@ -179,7 +193,7 @@ class MpiKernels final : public Kernels<T> {
   }
 
   size_t n_, first_, last_;
-  const float* F_;              // this rank's rows, from first_ on
+  FFMatrixView F_;              // dense: this rank's rows, from first_ on; csr, compressed: every row, its own kept
   std::vector<int32_t> rows_;   // the rows a product computes (empty: all); each rank takes those in its block
   OpenMPExec ex_;               // all n rows: loading and fetching whole vectors
   BlockExec mine_;              // this rank's rows
@@ -189,7 +203,7 @@ class MpiKernels final : public Kernels<T> {
   bool whole_ = false;          // one rank holds every row: nothing to gather
   int rank_ = 0, size_ = 1;
   std::vector<int> counts_, displs_;
-  double matrix_bytes_ = 0;
+  double matrix_bytes_ = 0, held_bytes_ = 0;
   int marks_ = 0;
   Traffic now_, method_;
 };
@@ -201,7 +215,6 @@ std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, 
   if (!hpcgi::comm::active())
     throw hpcgi::UsageError("backend mpi needs MPI initialised: run bin/radiosity (which does so for --backend mpi), "
                             "under mpirun -np P");
-  if (sys.stored.n) throw hpcgi::UsageError("backend mpi reads dense float32 form factors only");
   if (solve_one_channel(sys, cfg)) return std::make_unique<MpiKernels<T, Grey>>(sys, vectors, cfg.threads);
   if (cfg.layout == Layout::soa) return std::make_unique<MpiKernels<T, Soa>>(sys, vectors, cfg.threads);
   return std::make_unique<MpiKernels<T, Aos>>(sys, vectors, cfg.threads);

@@ -13,17 +13,21 @@ namespace {
 bool is_kept(float f, double threshold) { return !(std::fabs(double(f)) <= threshold); }  // NaN is kept
 
 // The power of two 2^k (k >= 0) that brings the largest |F_ij| closest to half's maximum 65504 without passing it.
-double half_scale_up(const float* F, size_t count) {
-  float biggest = 0;
-#pragma omp parallel for reduction(max : biggest) schedule(static)
-  for (size_t k = 0; k < count; ++k)
-    if (std::isfinite(F[k])) biggest = std::max(biggest, std::fabs(F[k]));
+double half_scale_up(float biggest) {
   if (biggest == 0) return 1;
   const int k = static_cast<int>(std::floor(std::log2(65504.0 / biggest)));
   return std::ldexp(1.0, std::clamp(k, 0, 40));
 }
 
 }  // namespace
+
+float largest_abs(const float* F, size_t count) {
+  float biggest = 0;
+#pragma omp parallel for reduction(max : biggest) schedule(static)
+  for (size_t k = 0; k < count; ++k)
+    if (std::isfinite(F[k])) biggest = std::max(biggest, std::fabs(F[k]));
+  return biggest;
+}
 
 const char* to_string(FFStorage s) {
   switch (s) {
@@ -129,7 +133,7 @@ size_t apply_threshold(float* F, size_t n, double threshold, size_t rows) {
 }
 
 FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
-                                   const FFMatrixOptions& opt)
+                                   const FFMatrixOptions& opt, size_t row_begin, size_t row_end)
     : n_(n), opt_(opt) {
   if (opt.max_step < 1 || opt.max_step > kMaxStep)
     throw hpcgi::UsageError("form-factor matrix: a compressed step must lie in 1.." + std::to_string(kMaxStep));
@@ -138,7 +142,10 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   if (reflectivity.size() != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
   if (n > size_t(std::numeric_limits<int32_t>::max()))
     throw hpcgi::UsageError("form-factor matrix: " + std::to_string(n) + " patches exceed int32 column indices");
-  const double up = opt.values == FFValues::float16 ? half_scale_up(F, n * n) : 1.0;
+  const size_t r0 = std::min(row_begin, n), r1 = std::max(r0, std::min(row_end, n));
+  const size_t values = (r1 - r0) * n;  // F's values: rows r0..r1, row i at F + (i - r0)·n
+  const double up =
+      opt.values == FFValues::float16 ? half_scale_up(opt.largest >= 0 ? opt.largest : largest_abs(F, values)) : 1.0;
   scale_ = 1 / up;
   auto store = [&](size_t k, float f) {  // the value f at position k of the stored values, rounded once
     switch (opt_.values) {
@@ -155,12 +162,12 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   };
 
   if (opt.storage == FFStorage::dense) {
-    allocate(n * n);
+    allocate(values);
 #pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < n * n; ++k) store(k, is_kept(F[k], opt.threshold) ? F[k] : 0.0f);
+    for (size_t k = 0; k < values; ++k) store(k, is_kept(F[k], opt.threshold) ? F[k] : 0.0f);
     size_t nonzero = 0;
 #pragma omp parallel for reduction(+ : nonzero) schedule(static)
-    for (size_t k = 0; k < n * n; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
+    for (size_t k = 0; k < values; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
     kept_ = nonzero;
     return;
   }
@@ -170,12 +177,13 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   row_start_.assign(n + 1, 0);
   size_t bridges = 0;
 #pragma omp parallel for schedule(static) reduction(+ : bridges)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = r0; i < r1; ++i) {
     size_t count = 0, row_bridges = 0;
     if (row_needed(reflectivity[i])) {
+      const float* Fi = F + (i - r0) * n;
       int64_t prev = -1;
       for (size_t j = 0; j < n; ++j)
-        if (is_kept(F[i * n + j], opt.threshold)) {
+        if (is_kept(Fi[j], opt.threshold)) {
           ++count;
           if (steps) row_bridges += size_t(int64_t(j) - prev - 1) / opt.max_step;
           prev = int64_t(j);
@@ -194,22 +202,23 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   else
     col_.resize(entries);
 #pragma omp parallel for schedule(dynamic, 16)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = r0; i < r1; ++i) {
     size_t k = static_cast<size_t>(row_start_[i]);
     if (k == static_cast<size_t>(row_start_[i + 1])) continue;
+    const float* Fi = F + (i - r0) * n;
     int64_t prev = -1;
     for (size_t j = 0; j < n; ++j) {
-      if (!is_kept(F[i * n + j], opt.threshold)) continue;
+      if (!is_kept(Fi[j], opt.threshold)) continue;
       if (steps) {
         for (; int64_t(j) - prev > int64_t(opt.max_step); prev += opt.max_step) {  // a bridge: value 0
           store(k, 0.0f);
           step_[k++] = uint16_t(opt.max_step);
         }
-        store(k, F[i * n + j]);
+        store(k, Fi[j]);
         step_[k++] = uint16_t(int64_t(j) - prev);
         prev = int64_t(j);
       } else {
-        store(k, F[i * n + j]);
+        store(k, Fi[j]);
         col_[k++] = static_cast<int32_t>(j);
       }
     }

@@ -73,7 +73,13 @@ struct FFMatrixOptions {
   FFValues values = FFValues::float32;
   double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
   uint32_t max_step = kMaxStep;  // compressed: the largest step an entry holds (smaller only to test the bridges)
+  // float16: the largest |F_ij| the scale is taken from; < 0: that of the rows given. MPI ranks each build their
+  // block's matrix from the largest value of all blocks, so that every rank scales alike (as one process would).
+  float largest = -1;
 };
+
+// The largest finite |F_k| of count values (0 when none is).
+float largest_abs(const float* F, size_t count);
 
 // Entries kept by the options' threshold in the rows that are needed (what CSR stores), counted in one pass. F may
 // hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row): those are counted.
@@ -109,7 +115,11 @@ class FormFactorMatrix {
   explicit FormFactorMatrix(Parts&& p);
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
   // rows of patches with reflectivity 0 left empty in csr. Throws UsageError for n beyond int32 column indices.
-  FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt);
+  // F may hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row): dense keeps
+  // those rows (row i at (i - row_begin)·n), csr and compressed index every row (n + 1 row starts) and leave the
+  // others empty, so that the kernels address row i alike on every rank.
+  FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
+                   size_t row_begin = 0, size_t row_end = SIZE_MAX);
   FFMatrixView view() const;
   size_t kept() const { return kept_; }  // values kept (csr, compressed: bridges not counted) or non-zero (dense)
   size_t bridges() const { return bridges_; }

@@ -7,13 +7,15 @@ double step_bytes(FFStorage storage, FFValues values, const StorageCounts& c) {
   return ff_storage_bytes(storage, values, c.n, c.kept, c.bridges);
 }
 
-std::vector<FFStorage> readable_storages(const SolveBackend& b) {
-  if (b.any_storage) return {FFStorage::dense, FFStorage::csr, FFStorage::compressed};
-  return {FFStorage::dense};
+std::vector<FFStorage> readable_storages(const SolveBackend& b, FFValues values) {
+  std::vector<FFStorage> v;
+  for (FFStorage s : {FFStorage::dense, FFStorage::csr, FFStorage::compressed})
+    if (reads_storage(b, s, values)) v.push_back(s);
+  return v;
 }
 
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c) {
-  FFStorage best = FFStorage::dense;
+  FFStorage best = readable.front();
   double least = step_bytes(best, values, c);
   for (FFStorage s : readable)
     if (step_bytes(s, values, c) < least) {

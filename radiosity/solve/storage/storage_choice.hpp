@@ -21,10 +21,11 @@ struct StorageCounts {
 // The bytes of F one product reads in this storage.
 double step_bytes(FFStorage storage, FFValues values, const StorageCounts& c);
 
-// The storages a backend reads: every one for those that read any (serial, openmp), else dense.
-std::vector<FFStorage> readable_storages(const SolveBackend& b);
+// The storages a backend reads with these values (reads_storage): every one for serial, openmp and mpi; csr and
+// compressed, and dense for float32 values, on the GPU backends; else dense. Never empty for float32 values.
+std::vector<FFStorage> readable_storages(const SolveBackend& b, FFValues values = FFValues::float32);
 
-// The storage of `readable` with the fewest step_bytes (dense on a tie).
+// The storage of `readable` (not empty) with the fewest step_bytes (the first, dense where readable, on a tie).
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c);
 
 }  // namespace radiosity

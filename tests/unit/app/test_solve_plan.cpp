@@ -57,7 +57,7 @@ TEST_F(SolvePhases, PlanRefusesWhatCannotRun) {
   a.cfg.backend = "original";
   a.cfg.steps = 32;
   a.storage = "csr";
-  refused(a, "backend 'original' reads dense float32 form factors only");
+  refused(a, "backend 'original' does not read csr float32 form factors (serial, openmp, cuda, cublas, mpi do)");
   a = args;
   a.snapshots = {1, 1001};
   refused(a, "--snapshots 1001: no such iteration (the run has at most 1000)");

@@ -181,19 +181,26 @@ TEST(Sparse, RowsAreSplitByEntries) {
 }
 
 // auto: the fewest bytes per step of the storages the backend reads. Room3's density (15%) takes compressed in
-// float32 and 16 bits; a closed box (83%) keeps dense; a backend that reads dense only gets dense.
+// float32 and 16 bits; a closed box (83%) keeps dense; a backend that reads dense only gets dense; the GPU backends
+// read the sparse storages and dense float32 only.
 TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
   const SolveBackend* openmp = nullptr;
   const SolveBackend* cuda = nullptr;
+  const SolveBackend* hybrid = nullptr;
   for (const SolveBackend& b : solve_backends()) {
     if (b.name == "openmp") openmp = &b;
     if (b.name == "cuda") cuda = &b;
+    if (b.name == "hybrid") hybrid = &b;
   }
-  ASSERT_TRUE(openmp && cuda);
+  ASSERT_TRUE(openmp && cuda && hybrid);
   const StorageCounts room3{9680, 14292925, 0, 9680 - 12};
-  for (FFValues v : {FFValues::float32, FFValues::float16})
+  for (FFValues v : {FFValues::float32, FFValues::float16}) {
     EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, room3), FFStorage::compressed) << to_string(v);
-  EXPECT_EQ(fewest_bytes_storage(readable_storages(*cuda), FFValues::float32, room3), FFStorage::dense);
+    EXPECT_EQ(fewest_bytes_storage(readable_storages(*cuda, v), v, room3), FFStorage::compressed) << to_string(v);
+  }
+  EXPECT_EQ(fewest_bytes_storage(readable_storages(*hybrid), FFValues::float32, room3), FFStorage::dense);
+  EXPECT_EQ(readable_storages(*cuda, FFValues::float16),
+            (std::vector<FFStorage>{FFStorage::csr, FFStorage::compressed}));
   const StorageCounts box{600, 300000, 0, 600};
   for (FFValues v : {FFValues::float32, FFValues::float16})
     EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, box), FFStorage::dense) << to_string(v);
@@ -300,4 +307,39 @@ TEST_F(SparseFile, DamagedFilesAreRefused) {
   FormFactors dense{n, p().F, params_};
   save_form_factors(f, mesh_, dense);
   EXPECT_NE(refusal(f).find("version 1"), std::string::npos) << refusal(f);
+}
+
+// An MPI rank's matrix (backend mpi): built from its block of rows alone, it indexes every row, holds its own rows
+// as the whole matrix holds them (the same values, columns or steps, in the same order) and leaves the others empty;
+// with the largest value given (every rank's), float16 rounds as the whole matrix does. Dense keeps the block's rows.
+TEST(Sparse, RowBlockMatrixHoldsItsRowsAsTheWholeMatrix) {
+  const Problem p = occluded_problem(157, 5, 0.7);
+  const size_t n = p.sys.n, b0 = 40, b1 = 97;
+  const float* block = p.F.data() + b0 * n;
+  for (FFStorage st : {FFStorage::dense, FFStorage::csr, FFStorage::compressed})
+    for (FFValues v : {FFValues::float32, FFValues::float16}) {
+      FFMatrixOptions o;
+      o.storage = st;
+      o.values = v;
+      const FormFactorMatrix whole(p.F.data(), n, p.sys.reflectivity, o);
+      o.largest = largest_abs(p.F.data(), n * n);
+      const FormFactorMatrix part(block, n, p.sys.reflectivity, o, b0, b1);
+      const FFMatrixView w = whole.view(), r = part.view();
+      ASSERT_EQ(r.scale, w.scale) << to_string(st) << " " << to_string(v);
+      const size_t vb = value_bytes(v);
+      if (st == FFStorage::dense) {
+        EXPECT_EQ(std::memcmp(r.data, static_cast<const char*>(w.data) + b0 * n * vb, (b1 - b0) * n * vb), 0);
+        continue;
+      }
+      for (size_t i = 0; i < n; ++i) {
+        const int64_t len = r.row_start[i + 1] - r.row_start[i];
+        ASSERT_EQ(len, i >= b0 && i < b1 ? w.row_start[i + 1] - w.row_start[i] : 0) << i;
+      }
+      const size_t k0 = size_t(w.row_start[b0]), count = size_t(w.row_start[b1]) - k0;
+      EXPECT_EQ(std::memcmp(r.data, static_cast<const char*>(w.data) + k0 * vb, count * vb), 0);
+      if (st == FFStorage::csr)
+        EXPECT_EQ(std::memcmp(r.col, w.col + k0, count * 4), 0);
+      else
+        EXPECT_EQ(std::memcmp(r.step, w.step + k0, count * 2), 0);
+    }
 }
