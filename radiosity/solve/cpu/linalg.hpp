@@ -206,7 +206,7 @@ void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vect
 }
 
 // The product for any stored matrix (ff_matrix.hpp): dispatched once per pass to the kernel of its storage and
-// values (dense here, csr and compressed in csr_kernels.hpp). The float16 scale is folded into c (a power of two:
+// values (dense here, csr, compressed and runs in csr_kernels.hpp). The float16 scale is folded into c (a power of two:
 // exact).
 template <class Exec, class V>
 void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows, const V& x, V& y,
