@@ -32,11 +32,11 @@ void add_formfactors(CLI::App& app, FormFactorArgs& a) {
                   "compare)")
       ->check(CLI::IsMember({"work", "rows"}))->capture_default_str();
   cmd->add_option("--storage", a.storage,
-                  "the file's storage: dense (version 1, what every reader takes) | csr | compressed (version 2: "
+                  "the file's storage: dense (version 1, what every reader takes) | csr | compressed | runs (version 2: "
                   "only the non-zero F_ij, read by solve on serial and openmp; one process)")
-      ->check(CLI::IsMember({"dense", "csr", "compressed"}))->capture_default_str();
+      ->check(CLI::IsMember({"dense", "csr", "compressed", "runs"}))->capture_default_str();
   cmd->add_option("--ff-precision", a.ff_precision,
-                  "the values of a csr or compressed file: float32 | float16 (scaled by a power of two) | bfloat16")
+                  "the values of a csr, compressed or runs file: float32 | float16 (scaled by a power of two) | bfloat16")
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
 }
 

@@ -31,7 +31,7 @@ void row_sums(const FormFactorRows& rows, FormFactorDiagnostics& d) {
   d.max_row_sum = hpcgi::comm::max(d.max_row_sum);
 }
 
-// A csr or compressed file (version 2) of one process's rows: every row kept (the file belongs to the geometry),
+// A csr, compressed or runs file (version 2) of one process's rows: every row kept (the file belongs to the geometry),
 // the copy's memory checked before it is built.
 void save_sparse_form_factors(const std::string& path, const Mesh& m, const FormFactorRows& rows,
                               const std::string& storage, const std::string& precision) {
@@ -42,9 +42,10 @@ void save_sparse_form_factors(const std::string& path, const Mesh& m, const Form
   opt.values = parse_ff_values(precision);
   const size_t kept = count_kept(rows.values.data(), n, every_row, 0);
   const size_t bridges = opt.storage == FFStorage::compressed ? count_bridges(rows.values.data(), n, every_row, 0) : 0;
+  const RunCounts runs = opt.storage == FFStorage::runs ? count_runs(rows.values.data(), n, every_row, opt) : RunCounts{};
   hpcgi::require_host_memory("the " + storage + " " + precision + " copy of the form factors of " +
                                  std::to_string(n) + " patches",
-                             ff_storage_bytes(opt.storage, opt.values, n, kept, bridges));
+                             ff_storage_bytes(opt.storage, opt.values, n, kept, bridges, runs));
   save_form_factor_matrix(path, m, rows.params, FormFactorMatrix(rows.values.data(), n, every_row, opt));
 }
 

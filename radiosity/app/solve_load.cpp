@@ -121,8 +121,9 @@ void read_form_factors(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
 }
 
 // The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
-// (the threshold dropped some) and *bridges (compressed's).
-FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, bool* dropped, size_t* bridges) {
+// (the threshold dropped some), *bridges (compressed's) and *runs (the runs storage's).
+FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, bool* dropped, size_t* bridges,
+                         RunCounts* runs) {
   const System& sys = L.sys;
   // Counted over this process's rows (on MPI ranks: summed over the ranks).
   auto kept_at = [&](double threshold) {
@@ -138,15 +139,20 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
   for (size_t i = L.block.begin; i < L.block.end; ++i) counts[1] += row_needed(sys.reflectivity[i]);
   hpcgi::comm::sum(counts, 2);
   *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[0]);
+  FFMatrixOptions run_opt;  // runs: read by one process only (reads_storage), so counted on the whole F
+  run_opt.threshold = a.threshold;
+  *runs = L.sparse_file                                                 ? L.matrix->runs()
+          : reads_storage(*p.backend, FFStorage::runs, p.values) ? count_runs(sys.F, L.n, sys.reflectivity, run_opt)
+                                                                        : RunCounts{};
   if (L.sparse_file) return L.matrix->view().storage;
   if (p.storage) return *p.storage;
   return fewest_bytes_storage(readable_storages(*p.backend, p.values), p.values,
-                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[1])});
+                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[1]), *runs});
 }
 
 // The dense file's values in the run's storage and precision (the dense values are given back).
-void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_t bridges) {
-  const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges);
+void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_t bridges, const RunCounts& runs) {
+  const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges, runs);
   // The dense file's values and the copy are held at once while it is built: that is what the limit must allow.
   const double held = L.file_bytes + bytes + vector_bytes(L.n);
   if (p.limit > 0 && held > p.limit)
@@ -252,7 +258,8 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   hpcgi::Timer t;
   bool dropped = false;
   size_t bridges = 0;
-  L.storage = choose_storage(a, p, L, &dropped, &bridges);
+  RunCounts runs;
+  L.storage = choose_storage(a, p, L, &dropped, &bridges, &runs);
   const bool as_file = L.storage == FFStorage::dense && p.values == FFValues::float32;
   // A sparse file's values are the run's: its reference is solved on them.
   L.same_matrix = !L.have_ref && (L.sparse_file || (p.values == FFValues::float32 && !dropped));
@@ -270,7 +277,7 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
     build_rank_matrix(a, p, L);
 #endif
   } else {
-    convert_dense(a, p, L, bridges);
+    convert_dense(a, p, L, bridges, runs);
     L.matrix_storage_bytes = L.matrix->bytes();
   }
   size_t rows_without_reflection = 0;

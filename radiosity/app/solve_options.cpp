@@ -61,8 +61,8 @@ void add_machine_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
   cmd->add_option("--storage", a.storage,
                   "form factors held as auto (of those the backend reads, the one that moves the fewest bytes per "
                   "step) | dense (n x n) | csr (only the kept F_ij: values and int32 columns) | compressed (csr with "
-                  "uint16 column steps)")
-      ->check(CLI::IsMember({"auto", "dense", "csr", "compressed"}))->capture_default_str();
+                  "uint16 column steps) | runs (runs of consecutive columns: values and 4 bytes a run)")
+      ->check(CLI::IsMember({"auto", "dense", "csr", "compressed", "runs"}))->capture_default_str();
   cmd->add_option("--ff-precision", a.ff_precision,
                   "form factors stored as float32 | float16 (scaled by a power of two) | bfloat16, widened to the "
                   "working precision in the sums (16 bits: serial and openmp)")

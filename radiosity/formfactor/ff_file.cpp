@@ -22,7 +22,7 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the form-factor file i
 
 constexpr char kMagic[8] = {'H', 'P', 'C', 'G', 'I', 'F', 'F', '\0'};
 constexpr uint32_t kVersion = 1;        // dense float32
-constexpr uint32_t kSparseVersion = 2;  // csr or compressed (ff_file.hpp)
+constexpr uint32_t kSparseVersion = 2;  // csr, compressed or runs (ff_file.hpp)
 
 // A header name field holds 7 characters: version 2 writes "compressed" as "csrd16" and "bfloat16" as "bf16".
 struct Code {
@@ -188,10 +188,10 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
   if (!sparse && (storage != "dense" || precision != "float32"))
     throw hpcgi::UsageError("unsupported " + file + ": storage '" + storage + "', precision '" + precision +
                             "' (version 1 holds dense float32)");
-  if (sparse && ((storage != "csr" && storage != "compressed") ||
+  if (sparse && ((storage != "csr" && storage != "compressed" && storage != "runs") ||
                  (precision != "float32" && precision != "float16" && precision != "bfloat16")))
     throw hpcgi::UsageError("unsupported " + file + ": storage '" + storage + "', precision '" + precision +
-                            "' (version 2 holds csr or compressed, float32, float16 or bfloat16)");
+                            "' (version 2 holds csr, compressed or runs, float32, float16 or bfloat16)");
   const uint64_t hash = mesh_hash(expected);
   if (h.n != expected.size() || h.mesh_hash != hash)
     throw hpcgi::UsageError(file + " belongs to another mesh: the file has " + std::to_string(h.n) +

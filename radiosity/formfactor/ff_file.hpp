@@ -11,7 +11,7 @@
 // then n² float32 values, row-major (F[i*n + j]), then a uint64 checksum of those bytes (FNV-1a over 64-bit words).
 // A file's size is therefore known from its header, and a truncated file is told from a corrupted one.
 //
-// Version 2 (issue 17) holds F sparse: the same header with version 2, storage "csr" or "csrd16" (compressed),
+// Version 2 (issue 17) holds F sparse: the same header with version 2, storage "csr", "csrd16" (compressed) or "runs",
 // precision "float32", "float16" or "bf16" (bfloat16) and at 64 the bytes of the payload that follows (radiosity/solve/storage/ff_matrix.hpp
 // describes the storages; radiosity/solve/storage/ff_matrix_file.hpp writes and reads the payload); then the payload's
 // checksum as above. Dense files stay version 1, byte for byte as before, and every reader of dense F (relight,

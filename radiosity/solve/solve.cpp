@@ -127,7 +127,10 @@ const std::vector<SolveBackend>& solve_backends() {
 }
 
 bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
-  if (b.any_storage || (storage == FFStorage::dense && values == FFValues::float32)) return true;
+  if (storage == FFStorage::dense && values == FFValues::float32) return true;
+  // runs: a whole matrix in one process (FormFactorMatrix builds no row block of it), on the CPU
+  if (storage == FFStorage::runs) return b.any_storage && !b.distributed;
+  if (b.any_storage) return true;
   return b.sparse_storage && storage != FFStorage::dense;
 }
 

@@ -1,6 +1,7 @@
 """Sparse form factors through bin/radiosity (issue 17): every storage gives the dense float32 answer on scenes 1-3
-(csr and compressed alike to the bit: the same sums in the same order), 16-bit compressed values within the float16
-error, --storage auto (the default) picks compressed on room3 and dense on a closed box, and says so."""
+(csr and compressed alike to the bit: the same sums in the same order; runs within 1e-6), 16-bit compressed and runs
+values within the float16 error, --storage auto (the default) picks runs on room3 and dense on a closed box, and says
+so."""
 import json
 import xml.etree.ElementTree as ET
 
@@ -64,8 +65,11 @@ def test_every_storage_gives_the_dense_float32_answer(tmp_path, form_factors, na
         dense, Bd, _ = solve(tmp_path, entry, "--storage", "dense", *common, name="dense")
         csr, Bc, _ = solve(tmp_path, entry, "--storage", "csr", *common, name="csr")
         comp, Bz, _ = solve(tmp_path, entry, "--storage", "compressed", *common, name="comp")
-        assert [r["params"]["storage"] for r in (dense, csr, comp)] == ["dense", "csr", "compressed"]
+        runs, Br, _ = solve(tmp_path, entry, "--storage", "runs", *common, name="runs")
+        assert [r["params"]["storage"] for r in (dense, csr, comp, runs)] == ["dense", "csr", "compressed", "runs"]
         assert max_rel_diff(Bc, Bd) <= 1e-6, (backend, layout)
+        assert max_rel_diff(Br, Bd) <= 1e-6, (backend, layout)
+        assert runs["result"]["kept"] == csr["result"]["kept"]
         assert Bz == Bc  # the same entries summed in the same order
         n, kept = dense["params"]["patches"], csr["result"]["kept"]
         assert comp["result"]["kept"] == kept and comp["result"]["matrix_storage_bytes"] == 6 * kept + 8 * (n + 1)
@@ -74,14 +78,16 @@ def test_every_storage_gives_the_dense_float32_answer(tmp_path, form_factors, na
                             name="half")
         assert half["result"]["matrix_storage_bytes"] == 4 * kept + 8 * (n + 1)
         assert 0 < max_rel_diff(Bh, Bd) <= 5e-4
+        half, Bh, _ = solve(tmp_path, entry, "--storage", "runs", "--ff-precision", "float16", *common, name="rhalf")
+        assert 0 < max_rel_diff(Bh, Bd) <= 5e-4
 
 
 def test_auto_is_the_default_and_says_what_it_picked(tmp_path, form_factors):
     if "room3" not in form_factors:
         pytest.skip("RRV's scenes are not here (room3.xml): run 'make scenes' or set RRV_SCENES")
     rec, _, out = solve(tmp_path, form_factors["room3"], "--steps", "4", "--threads", "2")
-    assert rec["params"]["storage_requested"] == "auto" and rec["params"]["storage"] == "compressed"
-    assert "form factors: compressed (auto: the fewest bytes per step) float32" in out
+    assert rec["params"]["storage_requested"] == "auto" and rec["params"]["storage"] == "runs"
+    assert "form factors: runs (auto: the fewest bytes per step) float32" in out
     assert rec["result"]["density"] < 0.3
     # a backend that reads dense only: auto gives dense
     rec, _, out = solve(tmp_path, form_factors["room3"], "--steps", "4", "--backend", "original")
@@ -100,26 +106,27 @@ def test_auto_keeps_dense_on_a_closed_box(tmp_path):
         assert f"form factors: dense (auto: the fewest bytes per step) {values}" in out
 
 
-def test_a_compressed_file_solves_without_dense_values(tmp_path, form_factors):
-    """formfactors --storage compressed writes version 2; solve reads it as stored (the memory check counts its
-    bytes, not 4 n^2) and gives the answer of the dense file stored the same way in memory, to the bit."""
+@pytest.mark.parametrize("storage", ["compressed", "runs"])
+def test_a_compressed_file_solves_without_dense_values(tmp_path, form_factors, storage):
+    """formfactors --storage compressed (or runs) writes version 2; solve reads it as stored (the memory check counts
+    its bytes, not 4 n^2) and gives the answer of the dense file stored the same way in memory, to the bit."""
     scene, flags, dense_ff = form_factors["scene2"]
     for values in ("float32", "float16"):
-        ff = tmp_path / f"scene2-{values}.ff"
+        ff = tmp_path / f"scene2-{storage}-{values}.ff"
         p = run([BIN / "radiosity", "formfactors", scene, *flags, "--hemicube", "32", "-o", ff, "--storage",
-                 "compressed", "--ff-precision", values, "--json", "--quiet"])
+                 storage, "--ff-precision", values, "--json", "--quiet"])
         assert p.returncode == 0, p.stderr
         made = json.loads(p.stdout)
-        assert made["params"]["storage"] == "compressed" and made["result"]["file_bytes"] < dense_ff.stat().st_size / 3
+        assert made["params"]["storage"] == storage and made["result"]["file_bytes"] < dense_ff.stat().st_size / 3
         common = ["--steps", "16", "--threads", "2", "--ff-precision", values]
         from_file, B1, out = solve(tmp_path, (scene, flags, ff), *common, name="file")
-        in_memory, B2, _ = solve(tmp_path, (scene, flags, dense_ff), "--storage", "compressed", *common, name="mem")
+        in_memory, B2, _ = solve(tmp_path, (scene, flags, dense_ff), "--storage", storage, *common, name="mem")
         assert B1 == B2
-        assert from_file["params"]["storage"] == "compressed"
+        assert from_file["params"]["storage"] == storage
         assert from_file["result"]["matrix_storage_bytes"] == in_memory["result"]["matrix_storage_bytes"]
         assert from_file["verify"]["agreed"] is True
         # the refusals: another storage, other values, a threshold, a backend that reads dense only
-        refusals = [(["--storage", "csr", "--ff-precision", values], "give --storage auto or compressed"),
+        refusals = [(["--storage", "csr", "--ff-precision", values], f"give --storage auto or {storage}"),
                     (["--ff-precision", "bfloat16"], f"give --ff-precision {values}"),
                     (["--threshold", "1e-3", "--ff-precision", values], "--threshold applies when a dense file")]
         if values == "float32":

@@ -42,9 +42,12 @@ class CpuKernels final : public Kernels<T> {
   }
   int threads() const override { return ex_.threads(); }
   int channels() const override { return V::kChannels; }
-  // Dense: the rows computed times n values; csr, compressed: the entries, their columns or steps, the row starts.
+  // Dense: the rows computed times n values; csr, compressed: the entries, their columns or steps, the row starts;
+  // runs: the entries, the runs, both row starts.
   double matrix_bytes() const override {
     const double v = double(value_bytes(F_.values));
+    if (F_.storage == FFStorage::runs)
+      return double(F_.row_start[n_]) * v + double(sizeof(FFRun)) * double(F_.run_start[n_]) + 16.0 * double(n_ + 1);
     if (F_.storage == FFStorage::csr) return double(F_.row_start[n_]) * (v + 4) + 8.0 * double(n_ + 1);
     if (F_.storage == FFStorage::compressed) return double(F_.row_start[n_]) * (v + 2) + 8.0 * double(n_ + 1);
     return v * double(rows_.empty() ? n_ : rows_.size()) * double(n_);

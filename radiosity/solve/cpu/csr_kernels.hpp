@@ -18,6 +18,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "radiosity/solve/cpu/runs_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
@@ -47,13 +48,22 @@ struct Step16Cols {
   Cursor row() const { return {step}; }
 };
 
-// Calls fn(k, j) for each entry k of row i of a csr or compressed matrix, j its column (bridges included: their
-// value is 0). For the checks and the sweeps that visit a row once; the product's kernel below is its own loop.
+// Calls fn(k, j) for each entry k of row i of a csr, compressed or runs matrix, j its column (bridges and merged
+// zeros included: their value is 0). For the checks and the sweeps that visit a row once; the products' kernels
+// (below, runs_kernels.hpp) are their own loops.
 template <class Fn>
 inline void for_each_entry(const FFMatrixView& F, size_t i, Fn&& fn) {
   const size_t k0 = size_t(F.row_start[i]), k1 = size_t(F.row_start[i + 1]);
   if (F.storage == FFStorage::csr) {
     for (size_t k = k0; k < k1; ++k) fn(k, size_t(F.col[k]));
+    return;
+  }
+  if (F.storage == FFStorage::runs) {
+    size_t k = k0, j = 0;
+    for (int64_t r = F.run_start[i]; r < F.run_start[i + 1]; ++r) {
+      j += F.run[r].step;
+      for (size_t q = 0; q < F.run[r].length; ++q) fn(k++, j++);
+    }
     return;
   }
   int64_t j = -1;
@@ -172,8 +182,8 @@ const typename V::value_type* gather_copy(const V& x) {
   }
 }
 
-// The product on rows [row_begin, row_end) of a csr or compressed matrix whose row_start indexes every row (the
-// float16 scale already in c). Exec::each_thread gives each thread its index and count; each takes its block of
+// The product on rows [row_begin, row_end) of a csr, compressed or runs matrix (runs: runs_kernels.hpp) whose
+// row_start indexes every row (the float16 scale already in c). Exec::each_thread gives each thread its index and count; each takes its block of
 // those rows by entries (entry_block). y must not be x.
 template <class Val, class Exec, class V>
 void sparse_matvec(const Exec& ex, const FFMatrixView& F, const V& x, V& y, const V& rho, const V& e,
@@ -185,6 +195,12 @@ void sparse_matvec(const Exec& ex, const FFMatrixView& F, const V& x, V& y, cons
   ex.each_thread([&](int t, int nt) {
     const auto [i0, i1] = entry_block(F.row_start, r0, r1, t, nt);
     if (i0 >= i1) return;
+    if (F.storage == FFStorage::runs) {
+      const typename V::value_type* xc[3];
+      channel_arrays(x, xc);
+      runs_rows<Val>(data, F.run, F.row_start, F.run_start, xc, x, y, rho, e, a, c, d, i0, i1);
+      return;
+    }
     const auto* x4 = gather_copy(x);
     if (F.storage == FFStorage::csr)
       sparse_rows<Val>(data, Int32Cols{F.col}, F.row_start, x4, x, y, rho, e, a, c, d, i0, i1);

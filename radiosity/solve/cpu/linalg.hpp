@@ -206,9 +206,9 @@ void dense_matvec(const Exec& ex, const typename Val::stored* F, const std::vect
 }
 
 // The product for any stored matrix (ff_matrix.hpp): dispatched once per pass to the kernel of its storage and
-// values (dense here, csr and compressed in csr_kernels.hpp). The float16 scale is folded into c (a power of two:
-// exact). Rows [row_begin, row_end) only: an MPI rank's block (a dense F then holds those rows, from row_begin on;
-// a sparse one indexes every row).
+// values (dense here, csr, compressed and runs in csr_kernels.hpp). The float16 scale is folded into c (a power of
+// two: exact). Rows [row_begin, row_end) only: an MPI rank's block (a dense F then holds those rows, from row_begin
+// on; a sparse one indexes every row).
 template <class Exec, class V>
 void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows, const V& x, V& y,
                    const V& rho, const V& e, typename V::value_type a, typename V::value_type c,

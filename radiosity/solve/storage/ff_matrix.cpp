@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "common/errors.hpp"
 #include "radiosity/solve/storage/half.hpp"
@@ -17,6 +18,34 @@ double half_scale_up(float biggest) {
   if (biggest == 0) return 1;
   const int k = static_cast<int>(std::floor(std::log2(65504.0 / biggest)));
   return std::ldexp(1.0, std::clamp(k, 0, 40));
+}
+
+// Calls emit(step, length) for each run of the row Fi (n columns), in order, as the runs storage holds it
+// (ff_matrix.hpp): kept columns joined across gaps of at most merge_gap, bridges over gaps above max_step, runs
+// longer than max_step split. Shared by count_runs and the matrix, so that both count the same runs.
+template <class Emit>
+void row_runs(const float* Fi, size_t n, double threshold, uint32_t merge_gap, uint32_t max_step, Emit&& emit) {
+  size_t end = 0;  // the column after the previous run's last
+  for (size_t j = 0; j < n;) {
+    if (!is_kept(Fi[j], threshold)) {
+      ++j;
+      continue;
+    }
+    const size_t first = j;
+    size_t last = j;
+    for (size_t q = j + 1; q < n && q - last - 1 <= merge_gap; ++q)
+      if (is_kept(Fi[q], threshold)) last = q;
+    j = last + 1;
+    size_t gap = first - end;
+    for (; gap > max_step; gap -= max_step) emit(max_step, size_t{0});
+    size_t step = gap;
+    for (size_t left = last + 1 - first; left > 0; step = 0) {
+      const size_t piece = std::min<size_t>(left, max_step);
+      emit(step, piece);
+      left -= piece;
+    }
+    end = last + 1;
+  }
 }
 
 }  // namespace
@@ -34,6 +63,7 @@ const char* to_string(FFStorage s) {
     case FFStorage::dense: return "dense";
     case FFStorage::csr: return "csr";
     case FFStorage::compressed: return "compressed";
+    case FFStorage::runs: return "runs";
   }
   return "unknown";
 }
@@ -51,7 +81,8 @@ FFStorage parse_ff_storage(const std::string& s) {
   if (s == "dense") return FFStorage::dense;
   if (s == "csr") return FFStorage::csr;
   if (s == "compressed") return FFStorage::compressed;
-  throw hpcgi::UsageError("unknown form-factor storage '" + s + "' (known: dense, csr, compressed)");
+  if (s == "runs") return FFStorage::runs;
+  throw hpcgi::UsageError("unknown form-factor storage '" + s + "' (known: dense, csr, compressed, runs)");
 }
 
 FFValues parse_ff_values(const std::string& s) {
@@ -110,13 +141,31 @@ size_t count_bridges(const float* F, size_t n, const std::vector<Rgb>& reflectiv
   return count;
 }
 
-double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges) {
+RunCounts count_runs(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
+                     size_t row_begin, size_t row_end) {
+  size_t runs = 0, entries = 0;
+  const size_t last = std::min(row_end, n);
+#pragma omp parallel for reduction(+ : runs, entries) schedule(static)
+  for (size_t i = row_begin; i < last; ++i) {
+    if (!row_needed(reflectivity[i])) continue;
+    row_runs(F + (i - row_begin) * n, n, opt.threshold, opt.merge_gap, opt.max_step, [&](size_t, size_t length) {
+      ++runs;
+      entries += length;
+    });
+  }
+  return {runs, entries};
+}
+
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges,
+                        const RunCounts& runs) {
   const double v = double(value_bytes(values));
   switch (storage) {
     case FFStorage::dense: return v * double(n) * double(n);
     case FFStorage::csr: return double(kept) * (v + sizeof(int32_t)) + sizeof(int64_t) * double(n + 1);
     case FFStorage::compressed:
       return double(kept + bridges) * (v + sizeof(uint16_t)) + sizeof(int64_t) * double(n + 1);
+    case FFStorage::runs:
+      return double(runs.entries) * v + double(runs.runs) * sizeof(FFRun) + 2 * sizeof(int64_t) * double(n + 1);
   }
   return 0;
 }
@@ -169,6 +218,11 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
 #pragma omp parallel for reduction(+ : nonzero) schedule(static)
     for (size_t k = 0; k < values; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
     kept_ = nonzero;
+    return;
+  }
+  if (opt.storage == FFStorage::runs) {
+    if (r0 != 0 || r1 != n) throw std::invalid_argument("form-factor matrix: runs are built from every row of F");
+    build_runs(F, reflectivity, store, allocate);
     return;
   }
   // CSR and compressed in two passes: the entries per row (kept values, and bridges for compressed), their prefix
@@ -225,9 +279,55 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   }
 }
 
+// The runs storage in two passes, as csr's: each row's runs and values (row_runs), their prefix sums as the row
+// starts, then the runs and values in place (kRunValuePad zeros past the last value).
+template <class Store, class Allocate>
+void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflectivity, Store& store,
+                                  Allocate& allocate) {
+  const size_t n = n_;
+  const FFMatrixOptions& o = opt_;
+  row_start_.assign(n + 1, 0);
+  run_start_.assign(n + 1, 0);
+  size_t kept = 0, bridges = 0;
+#pragma omp parallel for schedule(static) reduction(+ : kept, bridges)
+  for (size_t i = 0; i < n; ++i) {
+    if (!row_needed(reflectivity[i])) continue;
+    size_t runs = 0, entries = 0;
+    row_runs(F + i * n, n, o.threshold, o.merge_gap, o.max_step, [&](size_t, size_t length) {
+      ++runs;
+      entries += length;
+      bridges += length == 0;
+    });
+    for (size_t j = 0; j < n; ++j) kept += is_kept(F[i * n + j], o.threshold);
+    row_start_[i + 1] = int64_t(entries);
+    run_start_[i + 1] = int64_t(runs);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    row_start_[i + 1] += row_start_[i];
+    run_start_[i + 1] += run_start_[i];
+  }
+  kept_ = kept;
+  bridges_ = bridges;
+  allocate(size_t(row_start_[n]) + kRunValuePad);
+  for (size_t k = size_t(row_start_[n]); k < size_t(row_start_[n]) + kRunValuePad; ++k) store(k, 0.0f);
+  run_.resize(size_t(run_start_[n]));
+#pragma omp parallel for schedule(dynamic, 16)
+  for (size_t i = 0; i < n; ++i) {
+    size_t k = size_t(row_start_[i]), r = size_t(run_start_[i]), j = 0;
+    if (r == size_t(run_start_[i + 1])) continue;
+    const float* Fi = F + i * n;
+    row_runs(Fi, n, o.threshold, o.merge_gap, o.max_step, [&](size_t step, size_t length) {
+      run_[r++] = FFRun{uint16_t(step), uint16_t(length)};
+      j += step;
+      for (size_t q = 0; q < length; ++q, ++j) store(k++, is_kept(Fi[j], o.threshold) ? Fi[j] : 0.0f);
+    });
+  }
+}
+
 FormFactorMatrix::FormFactorMatrix(Parts&& p)
     : n_(p.n), kept_(p.kept), bridges_(p.bridges), opt_(p.opt), scale_(p.scale), f32_(std::move(p.f32)),
-      u16_(std::move(p.u16)), row_start_(std::move(p.row_start)), col_(std::move(p.col)), step_(std::move(p.step)) {}
+      u16_(std::move(p.u16)), row_start_(std::move(p.row_start)), col_(std::move(p.col)), step_(std::move(p.step)),
+      run_start_(std::move(p.run_start)), run_(std::move(p.run)) {}
 
 FFMatrixView FormFactorMatrix::view() const {
   FFMatrixView v;
@@ -239,14 +339,20 @@ FFMatrixView FormFactorMatrix::view() const {
     v.row_start = row_start_.data();
     v.col = opt_.storage == FFStorage::csr ? col_.data() : nullptr;
     v.step = opt_.storage == FFStorage::compressed ? step_.data() : nullptr;
+    v.run_start = opt_.storage == FFStorage::runs ? run_start_.data() : nullptr;
+    v.run = opt_.storage == FFStorage::runs ? run_.data() : nullptr;
   }
   v.scale = scale_;
   return v;
 }
 
+RunCounts FormFactorMatrix::runs() const {
+  if (opt_.storage != FFStorage::runs) return {};
+  return {run_.size(), size_t(row_start_[n_])};
+}
+
 double FormFactorMatrix::bytes() const {
-  return double(f32_.size()) * 4 + double(u16_.size()) * 2 + double(row_start_.size()) * 8 +
-         double(col_.size()) * 4 + double(step_.size()) * 2;
+  return ff_storage_bytes(opt_.storage, opt_.values, n_, kept_, bridges_, runs());
 }
 
 }  // namespace radiosity

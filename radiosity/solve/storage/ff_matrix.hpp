@@ -7,6 +7,14 @@
 //          step above 65535 (a gap of more than 65535 zeros: scenes of more than 65536 patches only) is bridged by
 //          entries of step 65535 and value 0 ("bridges"), so that values and steps stay one entry each and the
 //          kernels read them in lockstep (csr_kernels.hpp).
+//   runs:  each row a list of runs of consecutive columns (the patches of one surface are consecutive, and a
+//          surface is seen or hidden as a whole, so a row's kept F_ij come in runs: room3 averages 8 per run), each
+//          run a uint16 step from the end of the previous run (the row starts at column 0) and a uint16 length, its
+//          values contiguous. A gap of at most merge_gap zeros between two runs is stored as zeros inside one run
+//          (cheaper than a new run: see kRunMergeGap). An entry costs its value alone plus 4 bytes a run, and the
+//          product reads x contiguously (no gathers; runs_kernels.hpp). A gap above max_step takes runs of length
+//          0 and step max_step ("bridges"), a run longer than max_step is split (the next piece has step 0). Rows
+//          start twice: row_start into the values, run_start into the runs.
 // and the values as
 //   float32: the file's values;
 //   float16: IEEE half, scaled by a power of two so that the largest |F_ij| is just below half's maximum (65504):
@@ -17,7 +25,7 @@
 // precision and accumulate there (float32 or float64).
 //
 // Rows of patches whose reflectivity is 0 in every channel are never needed: B_i = E_i whatever F says. CSR
-// leaves them empty (neither stored nor read); a dense matrix keeps them (rows stay at i·n) but the kernels skip
+// and runs leave them empty (neither stored nor read); a dense matrix keeps them (rows stay at i·n) but the kernels skip
 // them (dense_rows_to_compute).
 #pragma once
 #include <cstddef>
@@ -29,15 +37,23 @@
 
 namespace radiosity {
 
-enum class FFStorage { dense, csr, compressed };
+enum class FFStorage { dense, csr, compressed, runs };
 enum class FFValues { float32, float16, bfloat16 };
 
 const char* to_string(FFStorage s);
 const char* to_string(FFValues v);
-// "dense" | "csr" | "compressed"; "float32" | "float16" | "bfloat16"; anything else is a UsageError.
+// "dense" | "csr" | "compressed" | "runs"; "float32" | "float16" | "bfloat16"; anything else is a UsageError.
 FFStorage parse_ff_storage(const std::string& s);
 FFValues parse_ff_values(const std::string& s);
 size_t value_bytes(FFValues v);
+
+// One run of a runs matrix: columns [end + step, end + step + length), end the column after the previous run's
+// last (0 at the row's start). Part of the form-factor file (ff_matrix_file.hpp).
+struct FFRun {
+  uint16_t step;
+  uint16_t length;
+};
+static_assert(sizeof(FFRun) == 4, "a run is part of the file format");
 
 // What the kernels read: a view of a matrix owned elsewhere (a FormFactorMatrix, or the form-factor file's dense
 // float32 values).
@@ -45,10 +61,12 @@ struct FFMatrixView {
   size_t n = 0;
   FFStorage storage = FFStorage::dense;
   FFValues values = FFValues::float32;
-  const void* data = nullptr;          // dense: n·n values, row-major; csr, compressed: the entries, row after row
-  const int64_t* row_start = nullptr;  // csr, compressed: n + 1 offsets into data and col (or step)
+  const void* data = nullptr;          // dense: n·n values, row-major; the others: the entries, row after row
+  const int64_t* row_start = nullptr;  // csr, compressed, runs: n + 1 offsets into data (and col or step)
   const int32_t* col = nullptr;        // csr: the column of each kept value
   const uint16_t* step = nullptr;      // compressed: each entry's column minus the previous one's (row start: -1)
+  const int64_t* run_start = nullptr;  // runs: n + 1 offsets into run
+  const FFRun* run = nullptr;          // runs: the runs, row after row
   double scale = 1;                    // F_ij = scale · stored value (float16: 2^-k; 1 otherwise)
 };
 
@@ -65,17 +83,36 @@ inline bool row_needed(const Rgb& reflectivity) {
 // take their plain path over all rows).
 std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity);
 
-// The largest column step one compressed entry holds; a longer gap takes bridges (see above).
+// The largest column step one compressed entry (or a run) holds; a longer gap takes bridges (see above).
 inline constexpr uint32_t kMaxStep = 65535;
+
+// The longest gap of zeros a run stores (runs storage). Measured cost model (runs_kernels.hpp's AVX-512 product,
+// float16, room3 at R = 256, 1 thread, the minimum of 30 products, this project's 2-core EPYC VM at load 7): merge
+// gap 2: 991 264 runs, 19.0 M values, 8.09 ms; gap 16: 390 812 runs, 23.3 M values, 7.98 ms; so a product costs
+// about a·values + b·runs with a = 0.30 ns and b = 2.3 ns, and merging a gap of z zeros pays while z·a < b, z < 8
+// (gaps 4 and 8 measured 8.2 and 8.5 ms, gap 0 22.6 ms: short runs waste the masked blocks). The bytes are fewest
+// near gap 2 (42.2 MB; gap 4 43.0, gap 8 44.7), and two threads share the bandwidth, where bytes count: 4.
+inline constexpr uint32_t kRunMergeGap = 4;
 
 struct FFMatrixOptions {
   FFStorage storage = FFStorage::dense;
   FFValues values = FFValues::float32;
   double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
-  uint32_t max_step = kMaxStep;  // compressed: the largest step an entry holds (smaller only to test the bridges)
+  uint32_t max_step = kMaxStep;  // compressed, runs: the largest step (and run length) held (smaller: to test bridges)
+  uint32_t merge_gap = kRunMergeGap;  // runs: the longest gap of zeros stored inside a run
   // float16: the largest |F_ij| the scale is taken from; < 0: that of the rows given. MPI ranks each build their
   // block's matrix from the largest value of all blocks, so that every rank scales alike (as one process would).
   float largest = -1;
+};
+
+// A runs matrix's values hold this many zeros past the last (not counted in its bytes), so that the product's
+// masked blocks of a run's last 32 values (runs_kernels.hpp) never read past the buffer.
+inline constexpr size_t kRunValuePad = 32;
+
+// What a runs matrix of the kept entries holds beyond them: its runs (bridges included) and its stored values (the
+// kept ones and the zeros of merged gaps).
+struct RunCounts {
+  size_t runs = 0, entries = 0;
 };
 
 // The largest finite |F_k| of count values (0 when none is).
@@ -91,9 +128,14 @@ size_t count_kept(const float* F, size_t n, const std::vector<Rgb>& reflectivity
 size_t count_bridges(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
                      size_t row_begin = 0, size_t row_end = SIZE_MAX, uint32_t max_step = kMaxStep);
 
+// The runs a runs matrix of the kept entries takes (opt's merge_gap and max_step), counted as count_kept counts.
+RunCounts count_runs(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
+                     size_t row_begin = 0, size_t row_end = SIZE_MAX);
+
 // Bytes a matrix of these options holds (and one product reads): dense n²·v, csr kept·(v + 4) + 8·(n + 1),
-// compressed (kept + bridges)·(v + 2) + 8·(n + 1), v = value_bytes(values).
-double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges = 0);
+// compressed (kept + bridges)·(v + 2) + 8·(n + 1), runs entries·v + 4·runs + 16·(n + 1), v = value_bytes(values).
+double ff_storage_bytes(FFStorage storage, FFValues values, size_t n, size_t kept, size_t bridges = 0,
+                        const RunCounts& runs = {});
 
 // Sets every F_ij with |F_ij| <= threshold to 0, in place (a dense float32 run's threshold: no copy of F), in the
 // first `rows` rows of F (default: all n; an MPI rank: its block). Returns how many non-zero values stay.
@@ -111,21 +153,28 @@ class FormFactorMatrix {
     std::vector<int64_t> row_start;
     std::vector<int32_t> col;
     std::vector<uint16_t> step;
+    std::vector<int64_t> run_start;
+    std::vector<FFRun> run;
   };
   explicit FormFactorMatrix(Parts&& p);
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
-  // rows of patches with reflectivity 0 left empty in csr. Throws UsageError for n beyond int32 column indices.
-  // F may hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row): dense keeps
-  // those rows (row i at (i - row_begin)·n), csr and compressed index every row (n + 1 row starts) and leave the
-  // others empty, so that the kernels address row i alike on every rank.
+  // rows of patches with reflectivity 0 left empty in csr, compressed and runs. Throws UsageError for n beyond int32
+  // column indices. F may hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row):
+  // dense keeps those rows (row i at (i - row_begin)·n), csr and compressed index every row (n + 1 row starts) and
+  // leave the others empty, so that the kernels address row i alike on every rank; runs is built whole only.
   FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
                    size_t row_begin = 0, size_t row_end = SIZE_MAX);
   FFMatrixView view() const;
-  size_t kept() const { return kept_; }  // values kept (csr, compressed: bridges not counted) or non-zero (dense)
-  size_t bridges() const { return bridges_; }
+  size_t kept() const { return kept_; }  // values kept (sparse: bridges, merged zeros not counted) or non-zero (dense)
+  size_t bridges() const { return bridges_; }  // compressed's bridges, runs' runs of length 0
+  RunCounts runs() const;                      // runs: its runs and stored values; otherwise 0
+
   double bytes() const;                   // what it holds
 
  private:
+  template <class Store, class Allocate>
+  void build_runs(const float* F, const std::vector<Rgb>& reflectivity, Store& store, Allocate& allocate);
+
   size_t n_, kept_ = 0, bridges_ = 0;
   FFMatrixOptions opt_;
   double scale_ = 1;
@@ -134,6 +183,8 @@ class FormFactorMatrix {
   std::vector<int64_t> row_start_;
   std::vector<int32_t> col_;
   std::vector<uint16_t> step_;
+  std::vector<int64_t> run_start_;
+  std::vector<FFRun> run_;
 };
 
 }  // namespace radiosity

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <memory>
 #include <stdexcept>
+#include <vector>
 
 #include "common/errors.hpp"
 #include "common/files.hpp"
@@ -22,7 +23,9 @@ struct Counts {
 };
 static_assert(sizeof(Counts) == 32, "the payload's counts are part of the file format");
 
-size_t index_bytes(FFStorage s) { return s == FFStorage::csr ? sizeof(int32_t) : sizeof(uint16_t); }
+size_t index_bytes(FFStorage s) {
+  return s == FFStorage::csr ? sizeof(int32_t) : s == FFStorage::compressed ? sizeof(uint16_t) : 0;
+}
 
 struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
@@ -30,8 +33,10 @@ struct FileCloser {
 
 }  // namespace
 
-double sparse_payload_bytes(FFStorage storage, FFValues values, size_t n, size_t entries) {
-  return double(sizeof(Counts)) + 8.0 * double(n + 1) + double(entries) * double(index_bytes(storage) + value_bytes(values));
+double sparse_payload_bytes(FFStorage storage, FFValues values, size_t n, size_t entries, size_t runs) {
+  const double run_part = storage == FFStorage::runs ? 8.0 + 8.0 * double(n + 1) + double(sizeof(FFRun)) * double(runs) : 0;
+  return double(sizeof(Counts)) + 8.0 * double(n + 1) + run_part +
+         double(entries) * double(index_bytes(storage) + value_bytes(values));
 }
 
 void save_form_factor_matrix(const std::string& path, const Mesh& mesh, const HemicubeParams& params,
@@ -41,9 +46,14 @@ void save_form_factor_matrix(const std::string& path, const Mesh& mesh, const He
   if (v.n != mesh.size()) throw std::invalid_argument("save_form_factor_matrix: a matrix of another mesh");
   const size_t n = v.n, entries = size_t(v.row_start[n]);
   const Counts c{entries, m.kept(), m.bridges(), v.scale};
+  const bool runs = v.storage == FFStorage::runs;
+  const uint64_t run_count = runs ? uint64_t(v.run_start[n]) : 0;
   const void* index = v.storage == FFStorage::csr ? static_cast<const void*>(v.col) : v.step;
   const std::pair<const void*, size_t> pieces[] = {{&c, sizeof c},
+                                                   {&run_count, runs ? 8 : 0},
                                                    {v.row_start, 8 * (n + 1)},
+                                                   {v.run_start, runs ? 8 * (n + 1) : 0},
+                                                   {v.run, sizeof(FFRun) * run_count},
                                                    {index, entries * index_bytes(v.storage)},
                                                    {v.data, entries * value_bytes(v.values)}};
   Fnv64 sum;
@@ -88,11 +98,16 @@ FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& ex
   Counts c{};
   if (info.payload_bytes < sizeof c) throw corrupted("a payload of " + std::to_string(info.payload_bytes) + " bytes");
   read(&c, sizeof c);
-  const double want = sparse_payload_bytes(p.opt.storage, p.opt.values, n, c.entries);
-  if (c.entries != c.kept + c.bridges || double(info.payload_bytes) != want)
+  const bool runs = p.opt.storage == FFStorage::runs;
+  uint64_t run_count = 0;
+  if (runs && info.payload_bytes >= sizeof c + 8) read(&run_count, 8);
+  const double want = sparse_payload_bytes(p.opt.storage, p.opt.values, n, c.entries, run_count);
+  // csr and compressed: every entry a kept value or a bridge; runs: the kept values and merged zeros, bridges are runs
+  const bool counts_agree = runs ? c.entries >= c.kept && run_count >= c.bridges : c.entries == c.kept + c.bridges;
+  if (!counts_agree || double(info.payload_bytes) != want)
     throw corrupted(std::to_string(c.entries) + " entries (" + std::to_string(c.kept) + " kept, " +
-                    std::to_string(c.bridges) + " bridges) in a payload of " + std::to_string(info.payload_bytes) +
-                    " bytes");
+                    std::to_string(c.bridges) + " bridges" + (runs ? ", " + std::to_string(run_count) + " runs" : "") +
+                    ") in a payload of " + std::to_string(info.payload_bytes) + " bytes");
   if (!(c.scale > 0 && std::isfinite(c.scale)) || (p.opt.values != FFValues::float16 && c.scale != 1))
     throw corrupted("scale " + std::to_string(c.scale));
   p.kept = c.kept;
@@ -101,18 +116,24 @@ FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& ex
   const size_t entries = c.entries;
   p.row_start.resize(n + 1);
   read(p.row_start.data(), 8 * (n + 1));
-  if (p.opt.storage == FFStorage::csr) {
+  if (runs) {
+    p.run_start.resize(n + 1);
+    read(p.run_start.data(), 8 * (n + 1));
+    p.run.resize(run_count);
+    read(p.run.data(), sizeof(FFRun) * run_count);
+  } else if (p.opt.storage == FFStorage::csr) {
     p.col.resize(entries);
     read(p.col.data(), 4 * entries);
   } else {
     p.step.resize(entries);
     read(p.step.data(), 2 * entries);
   }
+  const size_t pad = runs ? kRunValuePad : 0;  // zeros past the last value (ff_matrix.hpp)
   if (p.opt.values == FFValues::float32) {
-    p.f32.resize(entries);
+    p.f32.assign(entries + pad, 0.0f);
     read(p.f32.data(), 4 * entries);
   } else {
-    p.u16.resize(entries);
+    p.u16.assign(entries + pad, 0);
     read(p.u16.data(), 2 * entries);
   }
   uint64_t stored = 0;
@@ -122,13 +143,33 @@ FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& ex
 
   // The structure: rows in order, columns increasing below n; the values: form factors (as dense files' are).
   if (p.row_start[0] != 0 || p.row_start[n] != int64_t(entries)) throw corrupted("row starts do not span the entries");
-  size_t zeros = 0;
+  if (runs && (p.run_start[0] != 0 || p.run_start[n] != int64_t(run_count)))
+    throw corrupted("run starts do not span the runs");
+  size_t zeros = 0, empty_runs = 0;
   for (size_t i = 0; i < n; ++i) {
     const int64_t k0 = p.row_start[i], k1 = p.row_start[i + 1];
     if (k1 < k0) throw corrupted("row " + std::to_string(i) + " ends before it starts");
+    // Each entry's column: csr's, compressed's steps summed, or the runs' columns in order.
+    std::vector<int64_t> cols;
+    if (runs) {
+      const int64_t r0 = p.run_start[i], r1 = p.run_start[i + 1];
+      if (r1 < r0) throw corrupted("row " + std::to_string(i) + "'s runs end before they start");
+      int64_t end = 0;
+      for (int64_t r = r0; r < r1; ++r) {
+        const FFRun run = p.run[size_t(r)];
+        empty_runs += run.length == 0;
+        end += run.step;
+        for (size_t q = 0; q < run.length; ++q) cols.push_back(end++);
+      }
+      if (int64_t(cols.size()) != k1 - k0)
+        throw corrupted("row " + std::to_string(i) + ": runs of " + std::to_string(cols.size()) + " entries for " +
+                        std::to_string(k1 - k0) + " values");
+    }
     int64_t prev = -1;
     for (int64_t k = k0; k < k1; ++k) {
-      const int64_t j = p.opt.storage == FFStorage::csr ? int64_t(p.col[size_t(k)]) : prev + p.step[size_t(k)];
+      const int64_t j = runs                               ? cols[size_t(k - k0)]
+                        : p.opt.storage == FFStorage::csr ? int64_t(p.col[size_t(k)])
+                                                          : prev + p.step[size_t(k)];
       if (j <= prev || j >= int64_t(n))
         throw corrupted("row " + std::to_string(i) + ": column " + std::to_string(j) + " after " +
                         std::to_string(prev) + " (columns increase from 0 to " + std::to_string(n - 1) + ")");
@@ -145,7 +186,11 @@ FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& ex
                                                 : ": a form factor lies in [0, 1]"));
     }
   }
-  if (zeros < c.bridges)
+  if (runs && (empty_runs != c.bridges || zeros < c.entries - c.kept))
+    throw corrupted(std::to_string(empty_runs) + " runs of length 0 and " + std::to_string(zeros) +
+                    " values 0 against the header's " + std::to_string(c.bridges) + " bridges and " +
+                    std::to_string(c.entries - c.kept) + " merged zeros");
+  if (!runs && zeros < c.bridges)
     throw corrupted(std::to_string(zeros) + " entries of value 0, fewer than the header's " +
                     std::to_string(c.bridges) + " bridges");
   return FormFactorMatrix(std::move(p));

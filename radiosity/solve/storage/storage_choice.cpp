@@ -1,24 +1,30 @@
 #include "radiosity/solve/storage/storage_choice.hpp"
 
+#include <algorithm>
+#include <stdexcept>
+
 namespace radiosity {
 
 double step_bytes(FFStorage storage, FFValues values, const StorageCounts& c) {
   if (storage == FFStorage::dense) return double(value_bytes(values)) * double(c.n) * double(c.rows_needed);
-  return ff_storage_bytes(storage, values, c.n, c.kept, c.bridges);
+  if (storage == FFStorage::runs && c.runs.entries < c.kept)  // a run holds every kept value: not counted
+    throw std::invalid_argument("step_bytes: the runs of " + std::to_string(c.kept) + " kept values are not counted");
+  return ff_storage_bytes(storage, values, c.n, c.kept, c.bridges, c.runs);
 }
 
 std::vector<FFStorage> readable_storages(const SolveBackend& b, FFValues values) {
   std::vector<FFStorage> v;
-  for (FFStorage s : {FFStorage::dense, FFStorage::csr, FFStorage::compressed})
+  for (FFStorage s : {FFStorage::dense, FFStorage::csr, FFStorage::compressed, FFStorage::runs})
     if (reads_storage(b, s, values)) v.push_back(s);
   return v;
 }
 
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c) {
-  FFStorage best = readable.front();
-  double least = step_bytes(best, values, c);
+  const bool dense = std::find(readable.begin(), readable.end(), FFStorage::dense) != readable.end();
+  FFStorage best = dense ? FFStorage::dense : readable.front();
+  double least = dense ? kSparseShare * step_bytes(best, values, c) : step_bytes(best, values, c);
   for (FFStorage s : readable)
-    if (step_bytes(s, values, c) < least) {
+    if (s != FFStorage::dense && step_bytes(s, values, c) < least) {
       best = s;
       least = step_bytes(s, values, c);
     }

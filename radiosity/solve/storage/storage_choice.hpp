@@ -1,7 +1,13 @@
 // What `--storage auto` (the default) picks: of the storages the backend reads, the one whose product moves the
 // fewest bytes of F per step (what Kernels::matrix_bytes reports): dense v·n per computed row, csr kept·(v + 4),
-// compressed (kept + bridges)·(v + 2), plus 8·(n + 1) of row starts for both sparse ones (v: the value's bytes).
-// Everything else a step moves (the vectors, O(n)) is the same in every storage. A tie keeps dense.
+// compressed (kept + bridges)·(v + 2), plus 8·(n + 1) of row starts for these sparse ones, runs entries·v + 4·runs
+// + 16·(n + 1) (v: the value's bytes).
+// Everything else a step moves (the vectors, O(n)) is the same in every storage. A sparse storage is taken over
+// dense only where it moves at most kSparseShare of dense's bytes: the sparse products read their bytes more slowly
+// than dense's four-stream sweep (room3, 1 thread, this project's EPYC VM, min of 30 products in the same minute:
+// dense float32 375 MB in 25.6 ms, 14.6 GB/s; runs float16 43 MB in 9.3 ms, 4.6 GB/s; compressed float16 70 MB in
+// 9.4 ms, 7.4 GB/s), so a matrix with few zeros (a closed box: runs move 86% of dense's bytes) keeps dense. A tie
+// keeps dense.
 #pragma once
 #include <cstddef>
 #include <vector>
@@ -16,16 +22,20 @@ struct StorageCounts {
   size_t kept = 0;         // F_ij kept in the rows that are needed (count_kept)
   size_t bridges = 0;      // compressed's bridges (count_bridges)
   size_t rows_needed = 0;  // rows a dense product computes (patches whose reflectivity is not 0)
+  RunCounts runs;          // the runs storage's runs and values (count_runs); runs.entries >= kept once counted
 };
 
-// The bytes of F one product reads in this storage.
+// The bytes of F one product reads in this storage (runs: throws std::invalid_argument when c.runs is not counted).
 double step_bytes(FFStorage storage, FFValues values, const StorageCounts& c);
 
 // The storages a backend reads with these values (reads_storage): every one for serial, openmp and mpi; csr and
 // compressed, and dense for float32 values, on the GPU backends; else dense. Never empty for float32 values.
 std::vector<FFStorage> readable_storages(const SolveBackend& b, FFValues values = FFValues::float32);
 
-// The storage of `readable` (not empty) with the fewest step_bytes (the first, dense where readable, on a tie).
+inline constexpr double kSparseShare = 0.5;
+
+// The storage of `readable` (not empty) with the fewest step_bytes, a sparse one only below kSparseShare of dense's
+// where dense is readable (dense on a tie; else the first of the fewest).
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c);
 
 }  // namespace radiosity

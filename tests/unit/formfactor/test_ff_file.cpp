@@ -126,7 +126,7 @@ TEST_F(FormFactorFile, UnsupportedVersionIsRefused) {
   version = 2;
   std::memcpy(&b[8], &version, 4);
   write_bytes(p, b);
-  EXPECT_NE(refusal(p, mesh_).find("storage 'dense', precision 'float32' (version 2 holds csr or compressed"),
+  EXPECT_NE(refusal(p, mesh_).find("storage 'dense', precision 'float32' (version 2 holds csr, compressed or runs"),
             std::string::npos)
       << refusal(p, mesh_);
 }

@@ -365,7 +365,7 @@ TEST(CudaSparse, SparseStoragesGiveSerialsAnswer) {
     sys.stored = m.view();
     for (const char* precision : {"float", "double"}) {
       SolveConfig ref = serial_double("jacobi", 30);
-      ref.precision = precision;
+      ref.precision = parse_precision(precision);
       const SolveResult want = solve(sys, ref);
       for (const Gpu& g : {Gpu{"cuda", "cuda", "aos"}, Gpu{"cublas", "cublas", "soa"}}) {
         SCOPED_TRACE(g.label + " " + to_string(st.storage) + " " + to_string(st.values) + " " + precision);
@@ -401,7 +401,7 @@ TEST(CudaSparse, StoragesTheGpuBackendsDoNotReadAreRefused) {
     sys.stored = m.view();
     SolveConfig c;
     c.backend = backend;
-    c.layout = std::string(backend) == "cublas" ? "soa" : "aos";
+    c.layout = std::string(backend) == "cublas" ? Layout::soa : Layout::aos;
     c.steps = 2;
     try {
       solve(sys, c);

@@ -1,6 +1,6 @@
-// The sparse product (csr_kernels.hpp) and the compressed storage (ff_matrix.hpp): the same answers as dense, the
-// same bits wherever the summation order is the same, the bridges of long gaps, the split of rows by entries, and
-// what --storage auto picks (storage_choice.hpp).
+// The sparse products (csr_kernels.hpp, runs_kernels.hpp) and the compressed and runs storages (ff_matrix.hpp): the
+// same answers as dense, the same bits wherever the summation order is the same, the bridges of long gaps, the split
+// of rows by entries, and what --storage auto picks (storage_choice.hpp).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -48,11 +48,13 @@ SolveConfig config(const std::string& backend, const std::string& layout, const 
   return solve_config(backend, layout, method, precision, steps, threads);
 }
 
-FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, uint32_t max_step = kMaxStep) {
+FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, uint32_t max_step = kMaxStep,
+                        uint32_t merge_gap = kRunMergeGap) {
   FFMatrixOptions o;
   o.storage = storage;
   o.values = values;
   o.max_step = max_step;
+  o.merge_gap = merge_gap;
   return FormFactorMatrix(p.F.data(), p.sys.n, p.sys.reflectivity, o);
 }
 
@@ -69,7 +71,7 @@ System system_of(const Problem& p, const FormFactorMatrix& m) {
 // every CPU backend, layout, precision and method (n = 203: rows that end in a partial group of 8 entries).
 TEST(Sparse, EveryStorageGivesTheDenseAnswer) {
   const Problem p = occluded_problem(203, 71, 0.8);
-  for (FFStorage st : {FFStorage::csr, FFStorage::compressed}) {
+  for (FFStorage st : {FFStorage::csr, FFStorage::compressed, FFStorage::runs}) {
     const FormFactorMatrix m = stored(p, st, FFValues::float32);
     const System s = system_of(p, m);
     for (const char* backend : {"serial", "openmp"})
@@ -116,7 +118,112 @@ TEST(Sparse, SixteenBitCompressedCostsTheRoundingOfItsValues) {
     EXPECT_LE(d_comp, 10 * unit);
     EXPECT_NEAR(d_comp, d_dense, 1e-9);  // the same rounded values; only the sums' order differs
     EXPECT_DOUBLE_EQ(comp.bytes(), 4.0 * double(comp.kept()) + 8 * 201);
+    const FormFactorMatrix runs = stored(p, FFStorage::runs, v);
+    const double d_runs = rel_diff(solve(system_of(p, runs), c).B, exact.B);
+    EXPECT_GT(d_runs, 0);
+    EXPECT_LE(d_runs, 10 * unit);
+    EXPECT_NEAR(d_runs, d_dense, 1e-9);
+    EXPECT_DOUBLE_EQ(runs.bytes(), 2.0 * double(runs.runs().entries) + 4.0 * double(runs.runs().runs) + 16 * 201);
   }
+}
+
+// The runs product's sum of a row depends on its runs only: AOS and SOA, serial and openmp with 1, 2 or 3 threads
+// give the same bits, for every value type and working precision, grey scenes too (32 fixed steps).
+TEST(Sparse, RunsGiveTheSameBitsOnEveryThreadCount) {
+  const Problem p = occluded_problem(203, 81, 0.7);
+  Problem grey = occluded_problem(203, 81, 0.7);  // the same F, every channel red's
+  for (size_t i = 0; i < grey.sys.n; ++i) {
+    grey.sys.reflectivity[i] = Rgb{p.sys.reflectivity[i][0], p.sys.reflectivity[i][0], p.sys.reflectivity[i][0]};
+    grey.sys.emission[i] = Rgb{p.sys.emission[i][0], p.sys.emission[i][0], p.sys.emission[i][0]};
+  }
+  for (const Problem* q : {&p, static_cast<const Problem*>(&grey)})
+    for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16})
+      for (const char* precision : {"float", "double"}) {
+        SCOPED_TRACE(std::string(to_string(v)) + " " + precision + (q == &grey ? " grey" : ""));
+        const FormFactorMatrix m = stored(*q, FFStorage::runs, v);
+        const SolveResult want = solve(system_of(*q, m), config("serial", "aos", precision, 32, 1));
+        EXPECT_EQ(solve(system_of(*q, m), config("serial", "soa", precision, 32, 1)).B, want.B);
+        for (const char* layout : {"aos", "soa"})
+          for (int threads : {1, 2, 3})
+            EXPECT_EQ(solve(system_of(*q, m), config("openmp", layout, precision, 32, threads)).B, want.B)
+                << layout << " " << threads;
+      }
+}
+
+// Runs hold every kept F_ij at its column and zeros in the merged gaps only; a gap above max_step takes runs of
+// length 0, a run above it is split; count_runs counts what the matrix holds; the answer does not change (a small
+// max_step and merge gaps from 0 to 50 exercise each case on a small matrix).
+TEST(Sparse, RunsHoldTheKeptValuesWithBridgesAndMergedGaps) {
+  const Problem p = occluded_problem(150, 83, 0.85);
+  const FormFactorMatrix plain = stored(p, FFStorage::runs, FFValues::float32);
+  EXPECT_EQ(plain.bridges(), 0u);
+  const SolveConfig c = config("openmp", "soa", "double", 32);
+  const SolveResult want = solve(system_of(p, plain), c);
+  size_t runs_at_0 = 0;
+  for (uint32_t max_step : {1u, 3u, 40u, kMaxStep})
+    for (uint32_t gap : {0u, 2u, 50u}) {
+      SCOPED_TRACE(std::to_string(max_step) + " " + std::to_string(gap));
+      const FormFactorMatrix m = stored(p, FFStorage::runs, FFValues::float32, max_step, gap);
+      FFMatrixOptions o;
+      o.max_step = max_step;
+      o.merge_gap = gap;
+      const RunCounts counted = count_runs(p.F.data(), p.sys.n, p.sys.reflectivity, o);
+      EXPECT_EQ(m.runs().runs, counted.runs);
+      EXPECT_EQ(m.runs().entries, counted.entries);
+      EXPECT_EQ(m.kept(), plain.kept());
+      EXPECT_GE(m.runs().entries, m.kept());
+      if (gap == 0) {
+        EXPECT_EQ(m.runs().entries, m.kept());
+      }
+      if (max_step == kMaxStep && gap == 0) runs_at_0 = m.runs().runs;
+      if (max_step == kMaxStep && gap == 50) {
+        EXPECT_LT(m.runs().runs, runs_at_0);
+      }
+      const FFMatrixView v = m.view();
+      size_t bridges = 0;
+      for (int64_t r = 0; r < v.run_start[p.sys.n]; ++r) {
+        bridges += v.run[r].length == 0;
+        EXPECT_LE(v.run[r].step, max_step);
+        EXPECT_LE(v.run[r].length, max_step);
+      }
+      EXPECT_EQ(bridges, m.bridges());
+      if (max_step == 1) {
+        EXPECT_GT(m.bridges(), 0u);
+      }
+      for (size_t i = 0; i < p.sys.n; ++i) {  // every kept F_ij at its column, every other stored value 0
+        size_t kept = 0;
+        int64_t prev = -1;
+        for_each_entry(v, i, [&](size_t k, size_t j) {
+          const float f = static_cast<const float*>(v.data)[k];
+          ASSERT_LT(j, p.sys.n);
+          EXPECT_GT(int64_t(j), prev);
+          prev = int64_t(j);
+          EXPECT_EQ(f, p.F[i * p.sys.n + j]);
+          kept += f != 0;
+        });
+        size_t expected = 0;
+        for (size_t j = 0; j < p.sys.n; ++j) expected += p.F[i * p.sys.n + j] != 0;
+        EXPECT_EQ(kept, expected) << "row " << i;
+      }
+      EXPECT_LE(rel_diff(solve(system_of(p, m), c).B, want.B), 1e-14);
+      EXPECT_DOUBLE_EQ(m.bytes(), 4.0 * double(m.runs().entries) + 4.0 * double(m.runs().runs) + 16 * 151);
+    }
+}
+
+// Rows of patches with reflectivity 0 are left empty: neither stored nor read, and the patch keeps its emission.
+TEST(Sparse, RunsLeaveRowsOfReflectivityZeroEmpty) {
+  Problem p = occluded_problem(120, 85, 0.6);
+  for (size_t i = 0; i < p.sys.n; i += 7) p.sys.reflectivity[i] = Rgb{0, 0, 0};
+  const FormFactorMatrix m = stored(p, FFStorage::runs, FFValues::float16);
+  const FFMatrixView v = m.view();
+  for (size_t i = 0; i < p.sys.n; i += 7) {
+    EXPECT_EQ(v.row_start[i + 1], v.row_start[i]);
+    EXPECT_EQ(v.run_start[i + 1], v.run_start[i]);
+  }
+  const SolveConfig c = config("openmp", "aos", "double", 0);
+  const SolveResult r = solve(system_of(p, m), c);
+  for (size_t i = 0; i < p.sys.n; i += 7) EXPECT_EQ(r.B[i], p.sys.emission[i]);
+  EXPECT_LE(rel_diff(r.B, solve(p.sys, c).B), 10 * 0x1p-11);
 }
 
 // A gap longer than the largest step is bridged by entries of value 0: counted alike by count_bridges and the
@@ -180,9 +287,9 @@ TEST(Sparse, RowsAreSplitByEntries) {
     }
 }
 
-// auto: the fewest bytes per step of the storages the backend reads. Room3's density (15%) takes compressed in
-// float32 and 16 bits; a closed box (83%) keeps dense; a backend that reads dense only gets dense; the GPU backends
-// read the sparse storages and dense float32 only.
+// auto: the fewest bytes per step of the storages the backend reads. Room3's density (18%) takes runs in float32
+// and 16 bits on the CPU (compressed where runs are not read: the GPU backends, which read the sparse storages and
+// dense float32 only); a closed box (83%) keeps dense; a backend that reads dense only gets dense.
 TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
   const SolveBackend* openmp = nullptr;
   const SolveBackend* cuda = nullptr;
@@ -193,23 +300,39 @@ TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
     if (b.name == "hybrid") hybrid = &b;
   }
   ASSERT_TRUE(openmp && cuda && hybrid);
-  const StorageCounts room3{9680, 14292925, 0, 9680 - 12};
+  // room3 at R = 256, every row: 17470512 kept in 737073 runs of 19947864 values at the default merge gap
+  const StorageCounts room3{9680, 17470512, 0, 9680, RunCounts{737073, 19947864}};
   for (FFValues v : {FFValues::float32, FFValues::float16}) {
-    EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, room3), FFStorage::compressed) << to_string(v);
+    EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, room3), FFStorage::runs) << to_string(v);
     EXPECT_EQ(fewest_bytes_storage(readable_storages(*cuda, v), v, room3), FFStorage::compressed) << to_string(v);
   }
+  EXPECT_EQ(fewest_bytes_storage({FFStorage::dense, FFStorage::csr, FFStorage::compressed}, FFValues::float16, room3),
+            FFStorage::compressed);
   EXPECT_EQ(fewest_bytes_storage(readable_storages(*hybrid), FFValues::float32, room3), FFStorage::dense);
   EXPECT_EQ(readable_storages(*cuda, FFValues::float16),
             (std::vector<FFStorage>{FFStorage::csr, FFStorage::compressed}));
-  const StorageCounts box{600, 300000, 0, 600};
+  const StorageCounts box{600, 300000, 0, 600, RunCounts{600 * 40, 340000}};
   for (FFValues v : {FFValues::float32, FFValues::float16})
     EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, box), FFStorage::dense) << to_string(v);
   // csr only where it is the only sparse storage read; dense on a tie
   EXPECT_EQ(fewest_bytes_storage({FFStorage::dense, FFStorage::csr}, FFValues::float32, room3), FFStorage::csr);
-  const StorageCounts tie{100, 0, 0, 0};
+  const StorageCounts tie{100, 0, 0, 0, RunCounts{0, 0}};
   EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), FFValues::float32, tie), FFStorage::dense);
-  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::compressed, FFValues::float16, room3), 4.0 * 14292925 + 8 * 9681);
-  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::dense, FFValues::float32, room3), 4.0 * 9680 * (9680 - 12));
+  // runs that were not counted are never taken for free
+  EXPECT_THROW(step_bytes(FFStorage::runs, FFValues::float16, StorageCounts{9680, 17470512, 0, 9680, RunCounts{}}),
+               std::invalid_argument);
+  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::runs, FFValues::float16, room3), 2.0 * 19947864 + 4.0 * 737073 + 16 * 9681);
+  EXPECT_EQ(parse_ff_storage("runs"), FFStorage::runs);
+  // counted on matrices: occluded rows take runs, a matrix without zeros (a closed box's) keeps dense
+  for (const auto& [share, want] : {std::pair{0.8, FFStorage::runs}, {0.0, FFStorage::dense}}) {
+    const Problem p = occluded_problem(300, 87, share);
+    const size_t n = p.sys.n, kept = count_kept(p.F.data(), n, p.sys.reflectivity, 0);
+    const StorageCounts counts{n, kept, 0, n, count_runs(p.F.data(), n, p.sys.reflectivity, FFMatrixOptions{})};
+    for (FFValues v : {FFValues::float32, FFValues::float16})
+      EXPECT_EQ(fewest_bytes_storage(readable_storages(*openmp), v, counts), want) << share << " " << to_string(v);
+  }
+  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::compressed, FFValues::float16, room3), 4.0 * 17470512 + 8 * 9681);
+  EXPECT_DOUBLE_EQ(step_bytes(FFStorage::dense, FFValues::float32, room3), 4.0 * 9680 * 9680);
   EXPECT_EQ(parse_ff_storage("compressed"), FFStorage::compressed);
 }
 
@@ -240,6 +363,14 @@ class SparseFile : public ::testing::Test {
   void write_bytes(const std::string& f, const std::string& b) const {
     std::ofstream(f, std::ios::binary | std::ios::trunc).write(b.data(), std::streamsize(b.size()));
   }
+  // The file's bytes d with the payload's checksum made right again (so that the structure checks are reached).
+  static std::string with_checksum(std::string d) {
+    Fnv64 sum;
+    sum.update(d.data() + kFormFactorHeaderBytes, d.size() - kFormFactorHeaderBytes - 8);
+    const uint64_t h = sum.finish();
+    std::memcpy(&d[d.size() - 8], &h, 8);
+    return d;
+  }
   // The message of the refusal to load f (empty if it loads).
   std::string refusal(const std::string& f) const {
     try {
@@ -257,18 +388,21 @@ class SparseFile : public ::testing::Test {
 };
 
 TEST_F(SparseFile, RoundTripKeepsEveryBitAndSolvesTheSame) {
-  for (FFStorage st : {FFStorage::csr, FFStorage::compressed})
+  for (FFStorage st : {FFStorage::csr, FFStorage::compressed, FFStorage::runs})
     for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16}) {
       SCOPED_TRACE(std::string(to_string(st)) + " " + to_string(v));
       const FormFactorMatrix m = every_row(st, v);
       const std::string f = path("f.ff");
       save_form_factor_matrix(f, mesh_, params_, m);
+      const size_t entries = size_t(m.view().row_start[m.view().n]);
       EXPECT_EQ(double(std::filesystem::file_size(f)),
-                double(kFormFactorHeaderBytes) + sparse_payload_bytes(st, v, m.view().n, m.kept() + m.bridges()) + 8);
+                double(kFormFactorHeaderBytes) + sparse_payload_bytes(st, v, m.view().n, entries, m.runs().runs) + 8);
       HemicubeParams read_params;
       const FormFactorMatrix back = load_form_factor_matrix(f, mesh_, &read_params);
       EXPECT_EQ(read_params.resolution, 64);
       EXPECT_EQ(back.kept(), m.kept());
+      EXPECT_EQ(back.bridges(), m.bridges());
+      EXPECT_EQ(back.runs().runs, m.runs().runs);
       EXPECT_EQ(back.bytes(), m.bytes());
       EXPECT_EQ(back.view().scale, m.view().scale);
       const SolveConfig c = config("openmp", "aos", "float", 16);
@@ -297,11 +431,7 @@ TEST_F(SparseFile, DamagedFilesAreRefused) {
   b = good;
   const size_t n = mesh_.size(), steps_at = kFormFactorHeaderBytes + 32 + 8 * (n + 1);
   b[steps_at] = char(0xff), b[steps_at + 1] = char(0xff);
-  Fnv64 sum;
-  sum.update(b.data() + kFormFactorHeaderBytes, b.size() - kFormFactorHeaderBytes - 8);
-  const uint64_t h = sum.finish();
-  std::memcpy(&b[b.size() - 8], &h, 8);
-  write_bytes(f, b);
+  write_bytes(f, with_checksum(b));
   EXPECT_NE(refusal(f).find("column 65534"), std::string::npos) << refusal(f);
   // a dense file is no sparse one
   FormFactors dense{n, p().F, params_};
@@ -342,4 +472,31 @@ TEST(Sparse, RowBlockMatrixHoldsItsRowsAsTheWholeMatrix) {
       else
         EXPECT_EQ(std::memcmp(r.step, w.step + k0, count * 2), 0);
     }
+}
+
+// A runs file is checked as csr and compressed files are: its checksum, and with the checksum made right, runs that
+// do not cover their row's values or that take a row past its last column.
+TEST_F(SparseFile, DamagedRunsFilesAreRefused) {
+  const std::string f = path("f.ff");
+  save_form_factor_matrix(f, mesh_, params_, every_row(FFStorage::runs, FFValues::float16));
+  const std::string good = bytes_of(f);
+  std::string b = good;
+  b[good.size() - 20] ^= 1;  // a value's bit
+  write_bytes(f, b);
+  EXPECT_NE(refusal(f).find("checksum mismatch"), std::string::npos) << refusal(f);
+  const size_t n = mesh_.size(), runs_at = kFormFactorHeaderBytes + 32 + 8 * (n + 1) + 8 + 8 * (n + 1);
+  b = good;
+  b[runs_at + 2] = char(b[runs_at + 2] + 1);  // the first run one value longer than its row holds
+  write_bytes(f, with_checksum(b));
+  EXPECT_NE(refusal(f).find("runs of"), std::string::npos) << refusal(f);
+  b = good;
+  b[runs_at] = char(0xff), b[runs_at + 1] = char(0xff);  // the first run starts past the last column
+  write_bytes(f, with_checksum(b));
+  EXPECT_NE(refusal(f).find("column 65535"), std::string::npos) << refusal(f);
+  b = good;
+  b[kFormFactorHeaderBytes + 32] ^= 1;  // the count of runs
+  write_bytes(f, with_checksum(b));
+  EXPECT_NE(refusal(f).find("runs) in a payload"), std::string::npos) << refusal(f);
+  write_bytes(f, good);
+  EXPECT_EQ(refusal(f), "");
 }

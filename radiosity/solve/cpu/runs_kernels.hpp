@@ -1,0 +1,217 @@
+// The product y = a·x + c·ρ ⊙ (F x) + d·e for F in runs storage (ff_matrix.hpp): each row a list of runs of
+// consecutive columns, all channels in one pass over the values, rows shared out between threads by their entries
+// (csr_kernels.hpp's sparse_matvec calls it, with entry_block), for every value type (float32, float16, bfloat16).
+//
+// A run is a dense dot product: its values contiguous, x_j..x_{j+L-1} contiguous in each channel, so no gathers.
+// x is read as one array per channel (SOA as it is; AOS de-interleaved once per product into this thread's scratch,
+// 3n values: room3's 9680 patches in 116 KB, L2). The cost is per value and per run (ff_matrix.hpp's kRunMergeGap:
+// about 0.3 ns a value, 2.3 ns a run on room3), and a run's length varies, so a loop over it that ends on its length
+// mispredicts once a run. Hence:
+//   AVX-512 (-march=native here): 32 values a pass as two blocks of 16 under masks (_bzhi of the values left), F
+//     loaded masked (F16C widening in vcvtph2ps), x by masked loads, so a run of up to 32 values (most: room3
+//     averages 27 at the default merge gap) takes one pass, and no lane past the run is read;
+//   AVX2 (the GPU kit's x86-64-v3): blocks of 8 while more than 32 values are left, then the last 1-32 in four
+//     blocks of 8 under masks from a table (F loaded whole and masked, its buffer kRunValuePad values longer; x by
+//     masked loads), again no branch on the length;
+//   otherwise a plain loop the compiler vectorizes.
+// Two sets of three accumulators (alternate blocks) keep six multiply-adds in flight across a row's runs, and each
+// run's values are prefetched kRunPrefetchBytes ahead. A row's sum depends on its runs only, not on the layout, the
+// thread count or the rows beside it: AOS and SOA, serial and openmp with any threads give the same bits (for one
+// build: the three paths sum in different orders).
+#pragma once
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <type_traits>
+
+#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
+#include "radiosity/solve/storage/stored_values.hpp"
+
+namespace radiosity {
+
+// x as the runs kernel reads it: one contiguous array per channel (SOA and grey as they are; AOS copied into this
+// thread's scratch once per product).
+template <class V>
+void channel_arrays(const V& x, const typename V::value_type* (&xc)[3]) {
+  using T = typename V::value_type;
+  for (int ch = 0; ch < 3; ++ch) xc[ch] = x.data(V::kChannels == 3 ? ch : 0);
+  if constexpr (V::kStep != 1) {
+    static thread_local std::optional<Soa<T>> soa;
+    const size_t n = x.size();
+    if (!soa || soa->size() != n) soa.emplace(n);
+    for (size_t j = 0; j < n; ++j)
+      for (int ch = 0; ch < 3; ++ch) (*soa)(j, ch) = x(j, ch);
+    for (int ch = 0; ch < 3; ++ch) xc[ch] = soa->data(ch);
+  }
+}
+
+// How far ahead of a run its values are asked for (see kPrefetchBytes, linalg.hpp): on room3, 1 thread, the AVX2
+// product took 9.3 ms without and 7.3 ms with 1 KiB (2 and 4 KiB no better; a loaded machine, minimum of 30).
+inline constexpr size_t kRunPrefetchBytes = 1024;
+
+#ifdef HPCGI_AVX2_SUMS
+// A run's values, two lines from kRunPrefetchBytes ahead (a line asked for twice costs an issue slot).
+inline void prefetch_run(const void* f) {
+  _mm_prefetch(static_cast<const char*>(f) + kRunPrefetchBytes, _MM_HINT_T0);
+  _mm_prefetch(static_cast<const char*>(f) + kRunPrefetchBytes + kCacheLine, _MM_HINT_T0);
+}
+#endif
+
+#if defined(HPCGI_AVX2_SUMS) && !defined(HPCGI_AVX512_SUMS)
+// kTailMasks[r]: 32 lanes (four blocks of 8), the first r set (r in 0..32).
+struct TailMasks {
+  alignas(64) int32_t m[33][32];
+  constexpr TailMasks() : m() {
+    for (int r = 0; r <= 32; ++r)
+      for (int l = 0; l < 32; ++l) m[r][l] = l < r ? -1 : 0;
+  }
+  const int32_t* operator[](size_t r) const { return m[r]; }
+};
+inline constexpr TailMasks kTailMasks{};
+#endif
+
+// A row's sums over its runs, one run at a time (add: the run's values f, x from p0, p1, p2 on; total: the sums).
+// The plain one: a loop the compiler vectorizes, for every T and channel count.
+template <class Val, class T, int C>
+struct PlainRunSums {
+  T s[3] = {0, 0, 0};
+  void add(const typename Val::stored* f, const T* p0, const T* p1, const T* p2, size_t len) {
+    T t0 = 0, t1 = 0, t2 = 0;
+    if constexpr (C == 3) {
+#pragma omp simd reduction(+ : t0, t1, t2)
+      for (size_t q = 0; q < len; ++q) {
+        const T fq = T(Val::get(f, q));
+        t0 += fq * p0[q];
+        t1 += fq * p1[q];
+        t2 += fq * p2[q];
+      }
+    } else {
+#pragma omp simd reduction(+ : t0)
+      for (size_t q = 0; q < len; ++q) t0 += T(Val::get(f, q)) * p0[q];
+    }
+    s[0] += t0, s[1] += t1, s[2] += t2;
+  }
+  void total(T (&out)[3]) const { out[0] = s[0], out[1] = s[1], out[2] = s[2]; }
+};
+
+#ifdef HPCGI_AVX512_SUMS
+// AVX-512: 32 values a pass as two blocks of 16 under masks (_bzhi: the lanes of the run's values left), so a run of
+// up to 32 values takes one pass, and no lane past it is loaded or added.
+template <class Val, int C>
+struct SimdRunSums {
+  __m512 a0 = _mm512_setzero_ps(), a1 = a0, a2 = a0, b0 = a0, b1 = a0, b2 = a0;
+  void add(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, size_t len) {
+    prefetch_run(f);
+    for (size_t q = 0; q < len; q += 32) {
+      const uint32_t m = _bzhi_u32(~0u, uint32_t(std::min<size_t>(len - q, 32)));
+      const __mmask16 ma = __mmask16(m), mb = __mmask16(m >> 16);
+      const __m512 fa = Val::load16(f + q, ma), fb = Val::load16(f + q + 16, mb);
+      a0 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p0 + q), a0);
+      b0 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p0 + q + 16), b0);
+      if constexpr (C == 3) {
+        a1 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p1 + q), a1);
+        b1 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p1 + q + 16), b1);
+        a2 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p2 + q), a2);
+        b2 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p2 + q + 16), b2);
+      }
+    }
+  }
+  // The 16 lanes added pairwise in a fixed order (GCC 12's _mm512_reduce_add_ps warns: -Wmaybe-uninitialized).
+  static float lanes(__m512 v) {
+    alignas(64) float t[16];
+    _mm512_store_ps(t, v);
+    for (int w = 8; w > 0; w /= 2)
+      for (int l = 0; l < w; ++l) t[l] += t[l + w];
+    return t[0];
+  }
+  void total(float (&out)[3]) const {
+    out[0] = lanes(_mm512_add_ps(a0, b0));
+    out[1] = lanes(_mm512_add_ps(a1, b1));
+    out[2] = lanes(_mm512_add_ps(a2, b2));
+  }
+};
+#elif defined(HPCGI_AVX2_SUMS)
+// AVX2: blocks of 8 while more than 32 values are left, then the last 1-32 in four blocks of 8 under masks
+// (kTailMasks[left]: F loaded whole and masked, x by masked loads), again no branch on a run's length up to 32.
+template <class Val, int C>
+struct SimdRunSums {
+  __m256 a0 = _mm256_setzero_ps(), a1 = a0, a2 = a0, b0 = a0, b1 = a0, b2 = a0;
+  // Two blocks of 8 at q, each under its mask (full blocks: all lanes).
+  void pair(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, __m256i ma,
+            __m256i mb) {
+    const __m256 fa = _mm256_and_ps(Val::load8(f), _mm256_castsi256_ps(ma));
+    const __m256 fb = _mm256_and_ps(Val::load8(f + 8), _mm256_castsi256_ps(mb));
+    a0 = _mm256_fmadd_ps(fa, _mm256_maskload_ps(p0, ma), a0);
+    b0 = _mm256_fmadd_ps(fb, _mm256_maskload_ps(p0 + 8, mb), b0);
+    if constexpr (C == 3) {
+      a1 = _mm256_fmadd_ps(fa, _mm256_maskload_ps(p1, ma), a1);
+      b1 = _mm256_fmadd_ps(fb, _mm256_maskload_ps(p1 + 8, mb), b1);
+      a2 = _mm256_fmadd_ps(fa, _mm256_maskload_ps(p2, ma), a2);
+      b2 = _mm256_fmadd_ps(fb, _mm256_maskload_ps(p2 + 8, mb), b2);
+    }
+  }
+  void add(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, size_t len) {
+    prefetch_run(f);
+    const __m256i all = _mm256_set1_epi32(-1);
+    size_t q = 0;
+    for (; q + 32 < len; q += 16) {
+      _mm_prefetch(reinterpret_cast<const char*>(f + q) + kRunPrefetchBytes + 2 * kCacheLine, _MM_HINT_T0);
+      pair(f + q, p0 + q, p1 + q, p2 + q, all, all);
+    }
+    const int32_t* mask = kTailMasks[len - q];
+    for (size_t t = 0; t < 32; t += 16)
+      pair(f + q + t, p0 + q + t, p1 + q + t, p2 + q + t,
+           _mm256_load_si256(reinterpret_cast<const __m256i*>(mask + t)),
+           _mm256_load_si256(reinterpret_cast<const __m256i*>(mask + t + 8)));
+  }
+  void total(float (&out)[3]) const {
+    const __m256 acc[3] = {_mm256_add_ps(a0, b0), _mm256_add_ps(a1, b1), _mm256_add_ps(a2, b2)};
+    for (int ch = 0; ch < 3; ++ch) {
+      const __m128 h = _mm_add_ps(_mm256_castps256_ps128(acc[ch]), _mm256_extractf128_ps(acc[ch], 1));
+      const __m128 q = _mm_add_ps(h, _mm_movehl_ps(h, h));
+      out[ch] = _mm_cvtss_f32(_mm_add_ss(q, _mm_shuffle_ps(q, q, 1)));
+    }
+  }
+};
+#endif
+
+#ifdef HPCGI_AVX2_SUMS
+template <class Val, class T, int C>
+using RunSums = std::conditional_t<std::is_same_v<T, float>, SimdRunSums<Val, C>, PlainRunSums<Val, T, C>>;
+#else
+template <class Val, class T, int C>
+using RunSums = PlainRunSums<Val, T, C>;
+#endif
+
+// Rows [i0, i1) of the product, F's values as Val (stored_values.hpp), x as one array per channel (xc). Out of line,
+// so that every caller runs the same machine code for a row.
+template <class Val, class V>
+[[gnu::noinline]] void runs_rows(const typename Val::stored* F, const FFRun* run, const int64_t* start,
+                                 const int64_t* run_start, const typename V::value_type* const (&xc)[3], const V& x,
+                                 V& y, const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
+                                 typename V::value_type d, size_t i0, size_t i1) {
+  using T = typename V::value_type;
+  constexpr int C = V::kChannels;
+  for (size_t i = i0; i < i1; ++i) {
+    RunSums<Val, T, C> acc;
+    const typename Val::stored* f = F + size_t(start[i]);
+    size_t j = 0;
+    for (const FFRun *u = run + size_t(run_start[i]), *end = run + size_t(run_start[i + 1]); u < end; ++u) {
+      j += u->step;
+      acc.add(f, xc[0] + j, xc[1] + j, xc[2] + j, u->length);
+      f += u->length;
+      j += u->length;
+    }
+    T s[3];
+    acc.total(s);
+    y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s[0] + d * e(i, 0);
+    if constexpr (C == 3) {
+      y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s[1] + d * e(i, 1);
+      y(i, 2) = a * x(i, 2) + c * rho(i, 2) * s[2] + d * e(i, 2);
+    }
+  }
+}
+
+}  // namespace radiosity
