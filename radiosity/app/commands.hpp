@@ -68,7 +68,7 @@ int run_formfactors(const FormFactorArgs& a);
 struct SolveArgs : SceneArgs {
   std::string ff;
   SolveConfig cfg;
-  std::string storage = "auto";         // auto (storage_choice.hpp: the fewest bytes per step) | dense | csr | compressed
+  std::string storage = "auto";         // auto (storage_choice.hpp) | dense | csr | compressed | runs
   std::string ff_precision = "float32";  // float32 | float16 | bfloat16: how F is stored
   double threshold = 0;                  // drop |F_ij| <= threshold at load
   std::string reference_ff;              // the error reference's form factors (default: --ff)

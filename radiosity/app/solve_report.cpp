@@ -226,7 +226,7 @@ void print_summary(const SolveReport& r) {
               to_string(cfg.precision).c_str(), res.threads,
               res.channels, res.channels == 1 ? " (grey scene)" : "s");
   std::printf("  form factors: %s%s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
-              to_string(L.storage), !r.p.storage ? " (auto: the fewest bytes per step)" : "",
+              to_string(L.storage), !r.p.storage ? " (auto: the fewest bytes per step, sparse below half of dense's)" : "",
               to_string(r.p.values), a.threshold, L.kept, L.n2, 100.0 * double(L.kept) / L.n2,
               L.matrix_storage_bytes / 1e6, L.skipped_rows);
   const bool sor = cfg.method == Method::sor;

@@ -87,7 +87,7 @@ def test_auto_is_the_default_and_says_what_it_picked(tmp_path, form_factors):
         pytest.skip("RRV's scenes are not here (room3.xml): run 'make scenes' or set RRV_SCENES")
     rec, _, out = solve(tmp_path, form_factors["room3"], "--steps", "4", "--threads", "2")
     assert rec["params"]["storage_requested"] == "auto" and rec["params"]["storage"] == "runs"
-    assert "form factors: runs (auto: the fewest bytes per step) float32" in out
+    assert "form factors: runs (auto: the fewest bytes per step, sparse below half of dense's) float32" in out
     assert rec["result"]["density"] < 0.3
     # a backend that reads dense only: auto gives dense
     rec, _, out = solve(tmp_path, form_factors["room3"], "--steps", "4", "--backend", "original")
@@ -103,7 +103,7 @@ def test_auto_keeps_dense_on_a_closed_box(tmp_path):
         rec, _, out = solve(tmp_path, (box, ["--divide", "0.05"], ff), "--steps", "4", "--ff-precision", values)
         assert rec["params"]["storage"] == "dense", rec["result"]["density"]
         assert rec["result"]["density"] > 0.75
-        assert f"form factors: dense (auto: the fewest bytes per step) {values}" in out
+        assert f"form factors: dense (auto: the fewest bytes per step, sparse below half of dense's) {values}" in out
 
 
 @pytest.mark.parametrize("storage", ["compressed", "runs"])
