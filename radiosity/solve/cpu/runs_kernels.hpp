@@ -4,20 +4,21 @@
 //
 // A run is a dense dot product: its values contiguous, x_j..x_{j+L-1} contiguous in each channel, so no gathers.
 // x is read as one array per channel (SOA as it is; AOS de-interleaved once per product into this thread's scratch,
-// 3n values: room3's 9680 patches in 116 KB, L2). The cost is per value and per run (ff_matrix.hpp's kRunMergeGap:
-// about 0.3 ns a value, 2.3 ns a run on room3), and a run's length varies, so a loop over it that ends on its length
-// mispredicts once a run. Hence:
-//   AVX-512 (-march=native here): 32 values a pass as two blocks of 16 under masks (_bzhi of the values left), F
-//     loaded masked (F16C widening in vcvtph2ps), x by masked loads, so a run of up to 32 values (most: room3
-//     averages 27 at the default merge gap) takes one pass, and no lane past the run is read;
+// 3n values: room3's 9680 patches in 116 KB, L2). A run's length varies, so a loop over it that ends on its length
+// mispredicts once a run (room3: 42% of runs hold at most 8 values, 20% more than 32). Hence the storage caps a run
+// at kRunMaxLength = 16 values (ff_matrix.hpp), and:
+//   AVX-512 (-march=native here): a run in ONE block of 16 under a mask (_bzhi of its length), F loaded masked (F16C
+//     widening in vcvtph2ps), x by masked loads: no branch on the length, no lane past the run read (a longer run,
+//     from a file written before the cap, takes full blocks first);
 //   AVX2 (the GPU kit's x86-64-v3): blocks of 8 while more than 32 values are left, then the last 1-32 in four
 //     blocks of 8 under masks from a table (F loaded whole and masked, its buffer kRunValuePad values longer; x by
-//     masked loads), again no branch on the length;
+//     masked loads), again no branch on a run's length up to 32;
 //   otherwise a plain loop the compiler vectorizes.
-// Two sets of three accumulators (alternate blocks) keep six multiply-adds in flight across a row's runs, and each
-// run's values are prefetched kRunPrefetchBytes ahead. A row's sum depends on its runs only, not on the layout, the
-// thread count or the rows beside it: AOS and SOA, serial and openmp with any threads give the same bits (for one
-// build: the three paths sum in different orders).
+// Consecutive runs alternate between two sets of three accumulators, and each run's values are prefetched
+// kRunPrefetchBytes ahead. Capped runs and one block a run took room3's float16 product (2 threads) from 2.4 to
+// 1.8 ms. A row's sum depends on its runs only, not on the layout, the thread count or the rows beside it: AOS and
+// SOA, serial and openmp with any threads give the same bits (for one build: the three paths sum in different
+// orders).
 #pragma once
 #include <algorithm>
 #include <cstddef>
@@ -48,14 +49,14 @@ void channel_arrays(const V& x, const typename V::value_type* (&xc)[3]) {
 }
 
 // How far ahead of a run its values are asked for (see kPrefetchBytes, linalg.hpp): on room3, 1 thread, the AVX2
-// product took 9.3 ms without and 7.3 ms with 1 KiB (2 and 4 KiB no better; a loaded machine, minimum of 30).
-inline constexpr size_t kRunPrefetchBytes = 1024;
+// product took 9.3 ms without and 7.3 ms with 1 KiB (a loaded machine, minimum of 30); the AVX-512 product of capped
+// runs (float16, 2 threads, medians of 20) 2.0 ms at 1 KiB, 1.8-2.1 at 2 KiB, 1.69-1.75 at 4 KiB, 1.87-2.06 at 8.
+inline constexpr size_t kRunPrefetchBytes = 4096;
 
 #ifdef HPCGI_AVX2_SUMS
-// A run's values, two lines from kRunPrefetchBytes ahead (a line asked for twice costs an issue slot).
+// A run's values, kRunPrefetchBytes ahead: one line a run (a run of 16 values is at most 64 bytes).
 inline void prefetch_run(const void* f) {
   _mm_prefetch(static_cast<const char*>(f) + kRunPrefetchBytes, _MM_HINT_T0);
-  _mm_prefetch(static_cast<const char*>(f) + kRunPrefetchBytes + kCacheLine, _MM_HINT_T0);
 }
 #endif
 
@@ -77,6 +78,7 @@ inline constexpr TailMasks kTailMasks{};
 template <class Val, class T, int C>
 struct PlainRunSums {
   T s[3] = {0, 0, 0};
+  template <int B>  // (one set of sums: B is the SIMD sums' alternation)
   void add(const typename Val::stored* f, const T* p0, const T* p1, const T* p2, size_t len) {
     T t0 = 0, t1 = 0, t2 = 0;
     if constexpr (C == 3) {
@@ -97,26 +99,29 @@ struct PlainRunSums {
 };
 
 #ifdef HPCGI_AVX512_SUMS
-// AVX-512: 32 values a pass as two blocks of 16 under masks (_bzhi: the lanes of the run's values left), so a run of
-// up to 32 values takes one pass, and no lane past it is loaded or added.
+// AVX-512: a run of up to 16 values (every run the storage builds: kRunMaxLength) in ONE block under a mask (_bzhi:
+// the run's lanes), so there is no branch on a run's length, and no lane past the run is loaded or added; a longer
+// run (a file written with longer runs) takes full blocks first. Runs alternate between two sets of three
+// accumulators (B), so that consecutive runs' multiply-adds do not wait for each other.
 template <class Val, int C>
 struct SimdRunSums {
-  __m512 a0 = _mm512_setzero_ps(), a1 = a0, a2 = a0, b0 = a0, b1 = a0, b2 = a0;
+  __m512 s[2][3] = {{_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()},
+                    {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()}};
+  template <int B>
+  void block(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, __mmask16 m) {
+    const __m512 fa = Val::load16(f, m);
+    s[B][0] = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(m, p0), s[B][0]);
+    if constexpr (C == 3) {
+      s[B][1] = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(m, p1), s[B][1]);
+      s[B][2] = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(m, p2), s[B][2]);
+    }
+  }
+  template <int B>
   void add(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, size_t len) {
     prefetch_run(f);
-    for (size_t q = 0; q < len; q += 32) {
-      const uint32_t m = _bzhi_u32(~0u, uint32_t(std::min<size_t>(len - q, 32)));
-      const __mmask16 ma = __mmask16(m), mb = __mmask16(m >> 16);
-      const __m512 fa = Val::load16(f + q, ma), fb = Val::load16(f + q + 16, mb);
-      a0 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p0 + q), a0);
-      b0 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p0 + q + 16), b0);
-      if constexpr (C == 3) {
-        a1 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p1 + q), a1);
-        b1 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p1 + q + 16), b1);
-        a2 = _mm512_fmadd_ps(fa, _mm512_maskz_loadu_ps(ma, p2 + q), a2);
-        b2 = _mm512_fmadd_ps(fb, _mm512_maskz_loadu_ps(mb, p2 + q + 16), b2);
-      }
-    }
+    size_t q = 0;
+    for (; q + 16 < len; q += 16) block<B>(f + q, p0 + q, p1 + q, p2 + q, __mmask16(0xffff));
+    block<B>(f + q, p0 + q, p1 + q, p2 + q, __mmask16(_bzhi_u32(0xffff, uint32_t(len - q))));
   }
   // The 16 lanes added pairwise in a fixed order (GCC 12's _mm512_reduce_add_ps warns: -Wmaybe-uninitialized).
   static float lanes(__m512 v) {
@@ -127,9 +132,7 @@ struct SimdRunSums {
     return t[0];
   }
   void total(float (&out)[3]) const {
-    out[0] = lanes(_mm512_add_ps(a0, b0));
-    out[1] = lanes(_mm512_add_ps(a1, b1));
-    out[2] = lanes(_mm512_add_ps(a2, b2));
+    for (int ch = 0; ch < 3; ++ch) out[ch] = lanes(_mm512_add_ps(s[0][ch], s[1][ch]));
   }
 };
 #elif defined(HPCGI_AVX2_SUMS)
@@ -152,6 +155,7 @@ struct SimdRunSums {
       b2 = _mm256_fmadd_ps(fb, _mm256_maskload_ps(p2 + 8, mb), b2);
     }
   }
+  template <int B>  // (the blocks alternate inside a run: B is the AVX-512 sums' alternation)
   void add(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, size_t len) {
     prefetch_run(f);
     const __m256i all = _mm256_set1_epi32(-1);
@@ -198,12 +202,18 @@ template <class Val, class V>
     RunSums<Val, T, C> acc;
     const typename Val::stored* f = F + size_t(start[i]);
     size_t j = 0;
-    for (const FFRun *u = run + size_t(run_start[i]), *end = run + size_t(run_start[i + 1]); u < end; ++u) {
-      j += u->step;
-      acc.add(f, xc[0] + j, xc[1] + j, xc[2] + j, u->length);
-      f += u->length;
-      j += u->length;
+    auto add = [&](auto b, const FFRun& r) {
+      j += r.step;
+      acc.template add<decltype(b)::value>(f, xc[0] + j, xc[1] + j, xc[2] + j, r.length);
+      f += r.length;
+      j += r.length;
+    };
+    const FFRun *u = run + size_t(run_start[i]), *end = run + size_t(run_start[i + 1]);
+    for (; u + 2 <= end; u += 2) {
+      add(std::integral_constant<int, 0>{}, u[0]);
+      add(std::integral_constant<int, 1>{}, u[1]);
     }
+    if (u < end) add(std::integral_constant<int, 0>{}, u[0]);
     T s[3];
     acc.total(s);
     y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s[0] + d * e(i, 0);

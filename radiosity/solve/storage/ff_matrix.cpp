@@ -21,10 +21,13 @@ double half_scale_up(float biggest) {
 }
 
 // Calls emit(step, length) for each run of the row Fi (n columns), in order, as the runs storage holds it
-// (ff_matrix.hpp): kept columns joined across gaps of at most merge_gap, bridges over gaps above max_step, runs
-// longer than max_step split. Shared by count_runs and the matrix, so that both count the same runs.
+// (ff_matrix.hpp): kept columns joined across gaps of at most o.merge_gap, bridges over gaps above o.max_step, runs
+// longer than o.max_length (or o.max_step) split. Shared by count_runs and the matrix, so that both count the same
+// runs.
 template <class Emit>
-void row_runs(const float* Fi, size_t n, double threshold, uint32_t merge_gap, uint32_t max_step, Emit&& emit) {
+void row_runs(const float* Fi, size_t n, const FFMatrixOptions& o, Emit&& emit) {
+  const double threshold = o.threshold;
+  const size_t merge_gap = o.merge_gap, max_step = o.max_step, max_length = std::min(o.max_step, o.max_length);
   size_t end = 0;  // the column after the previous run's last
   for (size_t j = 0; j < n;) {
     if (!is_kept(Fi[j], threshold)) {
@@ -40,7 +43,7 @@ void row_runs(const float* Fi, size_t n, double threshold, uint32_t merge_gap, u
     for (; gap > max_step; gap -= max_step) emit(max_step, size_t{0});
     size_t step = gap;
     for (size_t left = last + 1 - first; left > 0; step = 0) {
-      const size_t piece = std::min<size_t>(left, max_step);
+      const size_t piece = std::min(left, max_length);
       emit(step, piece);
       left -= piece;
     }
@@ -148,7 +151,7 @@ RunCounts count_runs(const float* F, size_t n, const std::vector<Rgb>& reflectiv
 #pragma omp parallel for reduction(+ : runs, entries) schedule(static)
   for (size_t i = row_begin; i < last; ++i) {
     if (!row_needed(reflectivity[i])) continue;
-    row_runs(F + (i - row_begin) * n, n, opt.threshold, opt.merge_gap, opt.max_step, [&](size_t, size_t length) {
+    row_runs(F + (i - row_begin) * n, n, opt, [&](size_t, size_t length) {
       ++runs;
       entries += length;
     });
@@ -186,6 +189,8 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
     : n_(n), opt_(opt) {
   if (opt.max_step < 1 || opt.max_step > kMaxStep)
     throw hpcgi::UsageError("form-factor matrix: a compressed step must lie in 1.." + std::to_string(kMaxStep));
+  if (opt.max_length < 1 || opt.max_length > kMaxStep)
+    throw hpcgi::UsageError("form-factor matrix: a run's length must lie in 1.." + std::to_string(kMaxStep));
   if (!(opt.threshold >= 0 && std::isfinite(opt.threshold)))
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0");
   if (reflectivity.size() != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
@@ -293,7 +298,7 @@ void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflec
   for (size_t i = 0; i < n; ++i) {
     if (!row_needed(reflectivity[i])) continue;
     size_t runs = 0, entries = 0;
-    row_runs(F + i * n, n, o.threshold, o.merge_gap, o.max_step, [&](size_t, size_t length) {
+    row_runs(F + i * n, n, o, [&](size_t, size_t length) {
       ++runs;
       entries += length;
       bridges += length == 0;
@@ -316,7 +321,7 @@ void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflec
     size_t k = size_t(row_start_[i]), r = size_t(run_start_[i]), j = 0;
     if (r == size_t(run_start_[i + 1])) continue;
     const float* Fi = F + i * n;
-    row_runs(Fi, n, o.threshold, o.merge_gap, o.max_step, [&](size_t step, size_t length) {
+    row_runs(Fi, n, o, [&](size_t step, size_t length) {
       run_[r++] = FFRun{uint16_t(step), uint16_t(length)};
       j += step;
       for (size_t q = 0; q < length; ++q, ++j) store(k++, is_kept(Fi[j], o.threshold) ? Fi[j] : 0.0f);

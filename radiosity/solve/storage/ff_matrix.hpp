@@ -13,7 +13,8 @@
 //          values contiguous. A gap of at most merge_gap zeros between two runs is stored as zeros inside one run
 //          (cheaper than a new run: see kRunMergeGap). An entry costs its value alone plus 4 bytes a run, and the
 //          product reads x contiguously (no gathers; runs_kernels.hpp). A gap above max_step takes runs of length
-//          0 and step max_step ("bridges"), a run longer than max_step is split (the next piece has step 0). Rows
+//          0 and step max_step ("bridges"), a run longer than max_length (kRunMaxLength, 16) or max_step is split
+//          (the next piece has step 0), so that the product takes a run in one masked block of 16. Rows
 //          start twice: row_start into the values, run_start into the runs.
 // and the values as
 //   float32: the file's values;
@@ -86,13 +87,20 @@ std::vector<int32_t> dense_rows_to_compute(const std::vector<Rgb>& reflectivity)
 // The largest column step one compressed entry (or a run) holds; a longer gap takes bridges (see above).
 inline constexpr uint32_t kMaxStep = 65535;
 
-// The longest gap of zeros a run stores (runs storage). Measured cost model (runs_kernels.hpp's AVX-512 product,
-// float16, room3 at R = 256, 1 thread, the minimum of 30 products, this project's 2-core EPYC VM at load 7): merge
-// gap 2: 991 264 runs, 19.0 M values, 8.09 ms; gap 16: 390 812 runs, 23.3 M values, 7.98 ms; so a product costs
-// about a·values + b·runs with a = 0.30 ns and b = 2.3 ns, and merging a gap of z zeros pays while z·a < b, z < 8
-// (gaps 4 and 8 measured 8.2 and 8.5 ms, gap 0 22.6 ms: short runs waste the masked blocks). The bytes are fewest
-// near gap 2 (42.2 MB; gap 4 43.0, gap 8 44.7), and two threads share the bandwidth, where bytes count: 4.
+// The longest gap of zeros a run stores (runs storage). First measured with a product of two masked blocks of 16 a
+// pass and no cap on a run's length (float16, room3 at R = 256, 1 thread, the minimum of 30 products, this
+// project's 2-core EPYC VM at load 7): merge gap 2: 991 264 runs, 19.0 M values, 8.09 ms; gap 16: 390 812 runs,
+// 23.3 M values, 7.98 ms; so a product cost about a·values + b·runs with a = 0.30 ns and b = 2.3 ns, and merging a
+// gap of z zeros paid while z·a < b, z < 8 (gaps 4 and 8 measured 8.2 and 8.5 ms, gap 0 22.6 ms). Measured again
+// with runs capped at kRunMaxLength and one block a run (2 threads, every row of room3 needed, medians of 20
+// products, alternating, load 0.5-1.1): gap 2 1.96-1.99 ms, gap 4 1.80-1.81 ms, gap 8 1.74-1.82 ms; the bytes
+// are fewest near gap 2 (45.2 MB; gap 4 46.5, gap 8 48.7): 4.
 inline constexpr uint32_t kRunMergeGap = 4;
+
+// The longest run the runs storage holds: a longer one is split into pieces of at most this many values (each piece
+// after the first with step 0), so that the AVX-512 product takes every run in ONE masked block of 16, with no branch
+// on its length (runs_kernels.hpp). Files written with longer runs still load: the product takes those in a loop.
+inline constexpr uint32_t kRunMaxLength = 16;
 
 struct FFMatrixOptions {
   FFStorage storage = FFStorage::dense;
@@ -100,6 +108,7 @@ struct FFMatrixOptions {
   double threshold = 0;  // keep F_ij only where |F_ij| > threshold (0: every non-zero)
   uint32_t max_step = kMaxStep;  // compressed, runs: the largest step (and run length) held (smaller: to test bridges)
   uint32_t merge_gap = kRunMergeGap;  // runs: the longest gap of zeros stored inside a run
+  uint32_t max_length = kRunMaxLength;  // runs: the longest run stored (a longer one is split, the next piece step 0)
   // float16: the largest |F_ij| the scale is taken from; < 0: that of the rows given. MPI ranks each build their
   // block's matrix from the largest value of all blocks, so that every rank scales alike (as one process would).
   float largest = -1;

@@ -49,12 +49,13 @@ SolveConfig config(const std::string& backend, const std::string& layout, const 
 }
 
 FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, uint32_t max_step = kMaxStep,
-                        uint32_t merge_gap = kRunMergeGap) {
+                        uint32_t merge_gap = kRunMergeGap, uint32_t max_length = kRunMaxLength) {
   FFMatrixOptions o;
   o.storage = storage;
   o.values = values;
   o.max_step = max_step;
   o.merge_gap = merge_gap;
+  o.max_length = max_length;
   return FormFactorMatrix(p.F.data(), p.sys.n, p.sys.reflectivity, o);
 }
 
@@ -151,63 +152,67 @@ TEST(Sparse, RunsGiveTheSameBitsOnEveryThreadCount) {
 }
 
 // Runs hold every kept F_ij at its column and zeros in the merged gaps only; a gap above max_step takes runs of
-// length 0, a run above it is split; count_runs counts what the matrix holds; the answer does not change (a small
-// max_step and merge gaps from 0 to 50 exercise each case on a small matrix).
+// length 0, a run above max_step or max_length is split; count_runs counts what the matrix holds; the answer does
+// not change (a small max_step, merge gaps from 0 to 50 and run lengths from 5 to 65535 exercise each case on a
+// small matrix).
 TEST(Sparse, RunsHoldTheKeptValuesWithBridgesAndMergedGaps) {
   const Problem p = occluded_problem(150, 83, 0.85);
   const FormFactorMatrix plain = stored(p, FFStorage::runs, FFValues::float32);
   EXPECT_EQ(plain.bridges(), 0u);
   const SolveConfig c = config("openmp", "soa", "double", 32);
   const SolveResult want = solve(system_of(p, plain), c);
-  size_t runs_at_0 = 0;
-  for (uint32_t max_step : {1u, 3u, 40u, kMaxStep})
-    for (uint32_t gap : {0u, 2u, 50u}) {
-      SCOPED_TRACE(std::to_string(max_step) + " " + std::to_string(gap));
-      const FormFactorMatrix m = stored(p, FFStorage::runs, FFValues::float32, max_step, gap);
-      FFMatrixOptions o;
-      o.max_step = max_step;
-      o.merge_gap = gap;
-      const RunCounts counted = count_runs(p.F.data(), p.sys.n, p.sys.reflectivity, o);
-      EXPECT_EQ(m.runs().runs, counted.runs);
-      EXPECT_EQ(m.runs().entries, counted.entries);
-      EXPECT_EQ(m.kept(), plain.kept());
-      EXPECT_GE(m.runs().entries, m.kept());
-      if (gap == 0) {
-        EXPECT_EQ(m.runs().entries, m.kept());
+  for (uint32_t max_length : {5u, kRunMaxLength, kMaxStep}) {
+    size_t runs_at_0 = 0;
+    for (uint32_t max_step : {1u, 3u, 40u, kMaxStep})
+      for (uint32_t gap : {0u, 2u, 50u}) {
+        SCOPED_TRACE(std::to_string(max_length) + " " + std::to_string(max_step) + " " + std::to_string(gap));
+        const FormFactorMatrix m = stored(p, FFStorage::runs, FFValues::float32, max_step, gap, max_length);
+        FFMatrixOptions o;
+        o.max_step = max_step;
+        o.merge_gap = gap;
+        o.max_length = max_length;
+        const RunCounts counted = count_runs(p.F.data(), p.sys.n, p.sys.reflectivity, o);
+        EXPECT_EQ(m.runs().runs, counted.runs);
+        EXPECT_EQ(m.runs().entries, counted.entries);
+        EXPECT_EQ(m.kept(), plain.kept());
+        EXPECT_GE(m.runs().entries, m.kept());
+        if (gap == 0) {
+          EXPECT_EQ(m.runs().entries, m.kept());
+        }
+        if (max_step == kMaxStep && gap == 0) runs_at_0 = m.runs().runs;
+        if (max_step == kMaxStep && gap == 50 && max_length == kMaxStep) {
+          EXPECT_LT(m.runs().runs, runs_at_0);  // merging joins runs where their length is not capped
+        }
+        const FFMatrixView v = m.view();
+        size_t bridges = 0;
+        for (int64_t r = 0; r < v.run_start[p.sys.n]; ++r) {
+          bridges += v.run[r].length == 0;
+          EXPECT_LE(v.run[r].step, max_step);
+          EXPECT_LE(v.run[r].length, std::min(max_step, max_length));
+        }
+        EXPECT_EQ(bridges, m.bridges());
+        if (max_step == 1) {
+          EXPECT_GT(m.bridges(), 0u);
+        }
+        for (size_t i = 0; i < p.sys.n; ++i) {  // every kept F_ij at its column, every other stored value 0
+          size_t kept = 0;
+          int64_t prev = -1;
+          for_each_entry(v, i, [&](size_t k, size_t j) {
+            const float f = static_cast<const float*>(v.data)[k];
+            ASSERT_LT(j, p.sys.n);
+            EXPECT_GT(int64_t(j), prev);
+            prev = int64_t(j);
+            EXPECT_EQ(f, p.F[i * p.sys.n + j]);
+            kept += f != 0;
+          });
+          size_t expected = 0;
+          for (size_t j = 0; j < p.sys.n; ++j) expected += p.F[i * p.sys.n + j] != 0;
+          EXPECT_EQ(kept, expected) << "row " << i;
+        }
+        EXPECT_LE(rel_diff(solve(system_of(p, m), c).B, want.B), 1e-14);
+        EXPECT_DOUBLE_EQ(m.bytes(), 4.0 * double(m.runs().entries) + 4.0 * double(m.runs().runs) + 16 * 151);
       }
-      if (max_step == kMaxStep && gap == 0) runs_at_0 = m.runs().runs;
-      if (max_step == kMaxStep && gap == 50) {
-        EXPECT_LT(m.runs().runs, runs_at_0);
-      }
-      const FFMatrixView v = m.view();
-      size_t bridges = 0;
-      for (int64_t r = 0; r < v.run_start[p.sys.n]; ++r) {
-        bridges += v.run[r].length == 0;
-        EXPECT_LE(v.run[r].step, max_step);
-        EXPECT_LE(v.run[r].length, max_step);
-      }
-      EXPECT_EQ(bridges, m.bridges());
-      if (max_step == 1) {
-        EXPECT_GT(m.bridges(), 0u);
-      }
-      for (size_t i = 0; i < p.sys.n; ++i) {  // every kept F_ij at its column, every other stored value 0
-        size_t kept = 0;
-        int64_t prev = -1;
-        for_each_entry(v, i, [&](size_t k, size_t j) {
-          const float f = static_cast<const float*>(v.data)[k];
-          ASSERT_LT(j, p.sys.n);
-          EXPECT_GT(int64_t(j), prev);
-          prev = int64_t(j);
-          EXPECT_EQ(f, p.F[i * p.sys.n + j]);
-          kept += f != 0;
-        });
-        size_t expected = 0;
-        for (size_t j = 0; j < p.sys.n; ++j) expected += p.F[i * p.sys.n + j] != 0;
-        EXPECT_EQ(kept, expected) << "row " << i;
-      }
-      EXPECT_LE(rel_diff(solve(system_of(p, m), c).B, want.B), 1e-14);
-      EXPECT_DOUBLE_EQ(m.bytes(), 4.0 * double(m.runs().entries) + 4.0 * double(m.runs().runs) + 16 * 151);
-    }
+  }
 }
 
 // Rows of patches with reflectivity 0 are left empty: neither stored nor read, and the patch keeps its emission.
