@@ -100,6 +100,7 @@ help:
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
 	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/<machine>/tables/bench_PRESET.md"
+	@echo "                (BENCH=\"bench-sparse bench-relight\": only those case lists)"
 	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
 	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
@@ -217,7 +218,7 @@ endif
 bench:
 	@common/deps.sh --check || common/deps.sh
 	@$(MAKE) --no-print-directory all
-	PRESET=$(PRESET) slurm/bench
+	PRESET=$(PRESET) BENCH="$(BENCH)" slurm/bench
 
 plots:
 	$(VENV)/bin/python -m analysis tables $(PRESET) $(MACHINE_ARG)

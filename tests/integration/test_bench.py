@@ -162,3 +162,12 @@ def test_bench_sparse_table_sets_each_storage_against_its_bytes(tmp_path, scene1
     assert any("csr float32" in c and "8" in c for c in cells), table
     assert any("compressed float16" in l for l in table.splitlines()) and "time / its limit" in table
     assert any("runs float16" in l for l in table.splitlines()), table
+
+
+def test_bench_refuses_an_unknown_case_list_before_running_anything(tmp_path):
+    """make bench BENCH=...: a list that does not exist is refused with exit 2 before any case or measurement."""
+    env = {**os.environ, "BENCH": "bench-sparse bench-nonesuch", "RESULTS": str(tmp_path), "RRV_SCENES": str(tmp_path)}
+    p = run([ROOT / "slurm" / "bench"], env=env, cwd=ROOT, timeout=60)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "bench-nonesuch" in p.stderr
+    assert not any(tmp_path.rglob("*.jsonl"))
