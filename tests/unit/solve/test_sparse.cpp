@@ -288,18 +288,24 @@ TEST(Sparse, RowsAreSplitByEntries) {
 }
 
 // auto: the fewest bytes per step of the storages the backend reads. Room3's density (18%) takes runs in float32
-// and 16 bits on the CPU (compressed where runs are not read: the GPU backends, which read the sparse storages and
-// dense float32 only); a closed box (83%) keeps dense; a backend that reads dense only gets dense.
+// and 16 bits on the CPU backends, mpi included (compressed where runs are not read: the GPU backends, which read
+// the sparse storages and dense float32 only); a closed box (83%) keeps dense; a backend that reads dense only gets
+// dense.
 TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
   const SolveBackend* openmp = nullptr;
   const SolveBackend* cuda = nullptr;
   const SolveBackend* hybrid = nullptr;
+  const SolveBackend* mpi = nullptr;
   for (const SolveBackend& b : solve_backends()) {
     if (b.name == "openmp") openmp = &b;
     if (b.name == "cuda") cuda = &b;
     if (b.name == "hybrid") hybrid = &b;
+    if (b.name == "mpi") mpi = &b;
   }
-  ASSERT_TRUE(openmp && cuda && hybrid);
+  ASSERT_TRUE(openmp && cuda && hybrid && mpi);
+  // mpi reads every storage, runs too (each rank its rows' runs matrix), so it picks as openmp does
+  for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16})
+    EXPECT_EQ(readable_storages(*mpi, v), readable_storages(*openmp, v)) << to_string(v);
   // room3 at R = 256, every row: 17470512 kept in 737073 runs of 19947864 values at the default merge gap
   const StorageCounts room3{9680, 17470512, 0, 9680, RunCounts{737073, 19947864}};
   for (FFValues v : {FFValues::float32, FFValues::float16}) {
