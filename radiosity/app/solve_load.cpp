@@ -133,17 +133,20 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
   };
   L.kept = L.sparse_file ? L.matrix->kept() : kept_at(a.threshold);
   *dropped = !L.sparse_file && a.threshold > 0 && L.kept != kept_at(0);
-  uint64_t counts[2] = {0, 0};  // bridges, rows needed
+  FFMatrixOptions run_opt;  // runs: the default merge gap and largest step
+  run_opt.threshold = a.threshold;
+  uint64_t counts[4] = {0, 0, 0, 0};  // bridges, rows needed, runs, runs' stored values
   if (!L.sparse_file && reads_storage(*p.backend, FFStorage::compressed, p.values))
     counts[0] = count_bridges(sys.F, L.n, sys.reflectivity, a.threshold, L.block.begin, L.block.end);
   for (size_t i = L.block.begin; i < L.block.end; ++i) counts[1] += row_needed(sys.reflectivity[i]);
-  hpcgi::comm::sum(counts, 2);
+  if (!L.sparse_file && reads_storage(*p.backend, FFStorage::runs, p.values)) {
+    const RunCounts r = count_runs(sys.F, L.n, sys.reflectivity, run_opt, L.block.begin, L.block.end);
+    counts[2] = r.runs;
+    counts[3] = r.entries;
+  }
+  hpcgi::comm::sum(counts, 4);
   *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[0]);
-  FFMatrixOptions run_opt;  // runs: read by one process only (reads_storage), so counted on the whole F
-  run_opt.threshold = a.threshold;
-  *runs = L.sparse_file                                                 ? L.matrix->runs()
-          : reads_storage(*p.backend, FFStorage::runs, p.values) ? count_runs(sys.F, L.n, sys.reflectivity, run_opt)
-                                                                        : RunCounts{};
+  *runs = L.sparse_file ? L.matrix->runs() : RunCounts{size_t(counts[2]), size_t(counts[3])};
   if (L.sparse_file) return L.matrix->view().storage;
   if (p.storage) return *p.storage;
   return fewest_bytes_storage(readable_storages(*p.backend, p.values), p.values,
@@ -176,28 +179,73 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
 }
 
 #ifdef HAVE_MPI
-// The entries row i of a rank's dense block takes in `storage` (its kept values, and compressed's bridges), in
-// every row of the block; 0 for the other rows.
-std::vector<uint64_t> row_entries(const LoadedSolve& L, FFStorage storage, double threshold) {
-  std::vector<uint64_t> entries(L.n, 0);
+// Each row's entries in opt's storage (its kept values, and compressed's bridges; runs: its stored values) at i and
+// its runs (runs storage) at n + i, counted in this rank's dense block and summed over the ranks.
+std::vector<uint64_t> row_counts(const LoadedSolve& L, const FFMatrixOptions& opt) {
+  const size_t n = L.n;
+  std::vector<uint64_t> counts(2 * n, 0);
   const float* F = L.ff.values.data();
   const auto& rho = L.sys.reflectivity;
 #pragma omp parallel for schedule(dynamic, 64)
   for (size_t i = L.block.begin; i < L.block.end; ++i) {
-    const float* Fi = F + (i - L.block.begin) * L.n;
-    entries[i] = count_kept(Fi, L.n, rho, threshold, i, i + 1) +
-                 (storage == FFStorage::compressed ? count_bridges(Fi, L.n, rho, threshold, i, i + 1) : 0);
+    const float* Fi = F + (i - L.block.begin) * n;
+    if (opt.storage == FFStorage::runs) {
+      const RunCounts r = count_runs(Fi, n, rho, opt, i, i + 1);
+      counts[i] = r.entries;
+      counts[n + i] = r.runs;
+    } else {
+      counts[i] = count_kept(Fi, n, rho, opt.threshold, i, i + 1) +
+                  (opt.storage == FFStorage::compressed ? count_bridges(Fi, n, rho, opt.threshold, i, i + 1) : 0);
+    }
   }
-  return entries;
+  hpcgi::comm::sum(counts.data(), int(2 * n));
+  return counts;
+}
+
+// A csr, compressed or runs rank's rows balanced by their cost in the product (csr_kernels.hpp's: its entries and
+// kRowCost; runs: and kRunCost a run, ff_matrix.hpp), not by count: the rows are counted in the blocks of equal
+// count that were read, the ranks' counts summed, the blocks split again, and each rank reads its new block (the
+// file a second time; the first block is freed before). --max-memory-per-rank is checked again here on the new
+// blocks: the dense rows a rank reads and its matrix (ff_storage_bytes) are held at once while it is built.
+void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const FFMatrixOptions& opt) {
+  const size_t n = L.n;
+  const std::vector<uint64_t> counts = row_counts(L, opt);
+  std::vector<uint64_t> work(n);
+  for (size_t i = 0; i < n; ++i) work[i] = counts[i] + kRunCost * counts[n + i] + kRowCost;
+  const NeedsAt needs = [&](int ranks) {
+    const std::vector<size_t> b = dist::split_by_work(work, ranks);
+    std::vector<RankNeed> out;
+    for (int r = 0; r < ranks; ++r) {
+      uint64_t entries = 0, runs = 0;
+      for (size_t i = b[r]; i < b[r + 1]; ++i) {
+        entries += counts[i];
+        runs += counts[n + i];
+      }
+      const double matrix = ff_storage_bytes(opt.storage, opt.values, n, entries, 0, RunCounts{runs, entries});
+      const double dense = 4.0 * double(b[r + 1] - b[r]) * double(n);  // read, and held while it is built
+      out.push_back({b[r + 1] - b[r], matrix, dense + vector_bytes(n)});
+    }
+    return out;
+  };
+  require_memory_per_rank(p.limit, needs, p.ranks,
+                          "a solve of " + L.patches + " in " + to_string(L.storage) + " " + to_string(p.values),
+                          "bin/radiosity solve ... --backend mpi");
+  L.rank_needs = needs(p.ranks);
+  const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
+  if (block.begin != L.block.begin || block.end != L.block.end) {
+    std::vector<float>().swap(L.ff.values);  // the rows read before: counted, no longer needed
+    dist::FileStats st;
+    L.ff = dist::load_form_factor_rows(a.ff, L.m, block, &st);
+    L.rank_read_s += st.io_s;
+    L.rank_checksum_s += st.checksum_s;
+    L.rank_chain_s += st.chain_s;
+    L.block = block;
+  }
 }
 
 // Backend mpi in a storage other than dense float32: each rank's rows in that storage, built from the dense file's
-// rows. A csr or compressed rank's rows are balanced by entries (csr_kernels.hpp's cost of a row: its entries and
-// kRowCost), not by count: the rows are counted in the blocks of equal count that were read, the ranks' counts
-// summed, the blocks split again, and each rank reads its new block (the file a second time) and builds its
-// matrix from it. The float16 scale is every rank's largest value, so that every rank rounds as one process.
-// --max-memory-per-rank is checked again here on the new blocks: the dense rows a rank reads and its matrix are
-// held at once while it is built.
+// rows (a sparse storage's rows balanced first: balance_rows_by_cost). The float16 scale is every rank's largest
+// value, so that every rank rounds as one process.
 void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   const size_t n = L.n;
   FFMatrixOptions opt;
@@ -205,38 +253,7 @@ void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   opt.values = p.values;
   opt.threshold = a.threshold;
   opt.largest = float(hpcgi::comm::max(double(largest_abs(L.ff.values.data(), L.block.rows() * n))));
-  if (L.storage != FFStorage::dense) {
-    std::vector<uint64_t> entries = row_entries(L, L.storage, a.threshold);
-    hpcgi::comm::sum(entries.data(), int(n));
-    std::vector<uint64_t> work(n);
-    for (size_t i = 0; i < n; ++i) work[i] = entries[i] + kRowCost;
-    const double v = double(value_bytes(p.values)) + (L.storage == FFStorage::csr ? 4.0 : 2.0);
-    const NeedsAt needs = [&](int ranks) {
-      const std::vector<size_t> b = dist::split_by_work(work, ranks);
-      std::vector<RankNeed> out;
-      for (int r = 0; r < ranks; ++r) {
-        uint64_t e = 0;
-        for (size_t i = b[r]; i < b[r + 1]; ++i) e += entries[i];
-        const double dense = 4.0 * double(b[r + 1] - b[r]) * double(n);  // read, and held while it is built
-        out.push_back({b[r + 1] - b[r], double(e) * v + 8.0 * double(n + 1), dense + vector_bytes(n)});
-      }
-      return out;
-    };
-    require_memory_per_rank(p.limit, needs, p.ranks,
-                            "a solve of " + L.patches + " in " + to_string(L.storage) + " " + to_string(p.values),
-                            "bin/radiosity solve ... --backend mpi");
-    L.rank_needs = needs(p.ranks);
-    const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
-    if (block.begin != L.block.begin || block.end != L.block.end) {
-      std::vector<float>().swap(L.ff.values);  // the rows read before: counted, no longer needed
-      dist::FileStats st;
-      L.ff = dist::load_form_factor_rows(a.ff, L.m, block, &st);
-      L.rank_read_s += st.io_s;
-      L.rank_checksum_s += st.checksum_s;
-      L.rank_chain_s += st.chain_s;
-      L.block = block;
-    }
-  }
+  if (L.storage != FFStorage::dense) balance_rows_by_cost(a, p, L, opt);
   L.matrix = hpcgi::comm::agreed([&] {
     return std::make_unique<FormFactorMatrix>(L.ff.values.data(), n, L.sys.reflectivity, opt, L.block.begin,
                                               L.block.end);

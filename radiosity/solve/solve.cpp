@@ -128,9 +128,8 @@ const std::vector<SolveBackend>& solve_backends() {
 
 bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values) {
   if (storage == FFStorage::dense && values == FFValues::float32) return true;
-  // runs: a whole matrix in one process (FormFactorMatrix builds no row block of it), on the CPU
-  if (storage == FFStorage::runs) return b.any_storage && !b.distributed;
-  if (b.any_storage) return true;
+  if (b.any_storage) return true;  // runs: the CPU backends only (serial, openmp; mpi, each rank its rows)
+  if (storage == FFStorage::runs) return false;
   return b.sparse_storage && storage != FFStorage::dense;
 }
 

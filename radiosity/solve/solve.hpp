@@ -102,7 +102,7 @@ struct SolveBackend {
   bool built;         // compiled into this binary
   std::string why_not;
   BackendRun run;
-  bool any_storage = false;  // reads F in any storage (System::stored; runs in one process only); else dense float32
+  bool any_storage = false;  // reads F in any storage (System::stored); else dense float32
   bool one_channel = false;  // solves a grey system as one channel
   bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
   bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
@@ -110,7 +110,7 @@ struct SolveBackend {
 const std::vector<SolveBackend>& solve_backends();
 
 // Whether backend b reads F stored so (any_storage, sparse_storage; dense float32 every backend reads; runs the CPU
-// backends of one process: serial, openmp).
+// backends: serial, openmp, mpi).
 bool reads_storage(const SolveBackend& b, FFStorage storage, FFValues values);
 
 // Whether this run solves one channel: cfg.channels is auto, the system is grey and the backend can.

@@ -188,6 +188,7 @@ def test_grey_scene_is_solved_as_one_channel_across_ranks(tmp_path):
 
 
 SPARSE = [("csr", "float32"), ("compressed", "float32"), ("compressed", "float16")]
+RUNS = [("runs", "float32"), ("runs", "float16")]
 
 
 @pytest.fixture(scope="module")
@@ -196,7 +197,7 @@ def serial_sparse(files):
     BiCG-STAB to 1e-6 (SOA)."""
     d, out = files
     answers = {}
-    for storage, values in SPARSE:
+    for storage, values in SPARSE + RUNS:
         for kind, args in (("steps", ["--steps", "20", "--layout", "aos", "--no-verify"]),
                            ("jacobi", ["--tol", "1e-6", "--layout", "soa"]),
                            ("bicgstab", ["--method", "bicgstab", "--tol", "1e-6", "--layout", "soa"])):
@@ -251,32 +252,87 @@ def test_mpi_sparse_storage_gives_serial_answer_rows_balanced_by_entries(files, 
         assert rec["result"]["status"] == "converged" and rec["verify"]["agreed"] is True
 
 
+def runs_counts(held_32, held_16, n):
+    """A runs matrix's stored values e and runs r from its bytes in float32 (4e + 4r + 16 (n + 1)) and in float16
+    (2e + 4r + 16 (n + 1)): the same rows, the same runs."""
+    e = (held_32 - held_16) / 2
+    return e, (held_16 - 16 * (n + 1) - 2 * e) / 4
+
+
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4])
+def test_mpi_runs_storage_gives_serial_answer_rows_balanced_by_cost(files, serial_sparse, ranks, tmp_path):
+    """Each rank builds its rows in runs storage from its rows of the dense file (row and run starts for every row,
+    its own rows' runs as the whole matrix's) and runs the CPU's runs product on them: a row's sum depends only on
+    its runs, so fixed Jacobi steps are serial's bits in float32 and float16 (the float16 scale every rank's largest
+    value); to a tolerance, within 1e-6. The ranks' rows are balanced by their cost (stored values, 8 a run, 8 a
+    row), and the bytes each holds add up to serial's."""
+    _, out = files
+    writer = {1: 4, 2: 3, 3: 2, 4: 1}[ranks]
+    held = {}
+    for _, values in RUNS:
+        o = tmp_path / f"steps-{values}.xml"
+        rec = record(radiosity("solve", out["scene"], "--ff", out[writer][0], "--backend", "mpi", "--storage", "runs",
+                               "--ff-precision", values, "--steps", "20", "--layout", "aos", "--no-verify",
+                               "--output", o, "--json", "--quiet", np_=ranks))
+        assert np.array_equal(radiosities(o), serial_sparse["runs", values, "steps"][1]), values
+        assert rec["params"]["storage"] == "runs" and rec["params"]["ff_precision"] == values
+        held[values] = rec["mpi"]["rank_ff_bytes"]
+        rows = rec["mpi"]["rank_rows"]
+    n = rec["params"]["patches"]
+    assert sum(rows) == n and len(rows) == ranks
+    counts = [runs_counts(a, b, n) for a, b in zip(held["float32"], held["float16"])]
+    assert all(e == int(e) and r == int(r) and e >= 0 and r >= 0 for e, r in counts), counts
+    # what one product reads on all ranks together: serial's runs matrix
+    for values, v in (("float32", 4), ("float16", 2)):
+        assert sum(e * v + 4 * r for e, r in counts) + 16 * (n + 1) == pytest.approx(
+            serial_sparse["runs", values, "steps"][0]["perf"]["matrix_bytes"])
+    # each block within one row of its share (a row: at most n values in at most n/6 + 1 runs: gaps above 4 zeros)
+    cost = [e + 8 * r + 8 * rows_r for (e, r), rows_r in zip(counts, rows)]
+    assert max(cost) <= sum(cost) / ranks + n + 8 * (n // 6 + 1) + 8, (cost, rows)
+    for method in ("jacobi", "bicgstab"):
+        o = tmp_path / f"{method}.xml"
+        rec = record(radiosity("solve", out["scene"], "--ff", out[writer][0], "--backend", "mpi", "--storage", "runs",
+                               "--ff-precision", "float16", "--method", method, "--tol", "1e-6", "--layout", "soa",
+                               "--output", o, "--json", "--quiet", np_=ranks))
+        assert rel_diff(radiosities(o), serial_sparse["runs", "float16", method][1]) <= 1e-6
+        assert rec["result"]["status"] == "converged" and rec["verify"]["agreed"] is True
+
+
 def test_mpi_auto_chooses_alike_on_any_number_of_ranks(files):
-    """--storage auto on mpi chooses from every rank's counts together: the same storage on 1 and 3 ranks, and the
-    serial run's where mpi reads it (mpi does not read runs, which one process builds whole)."""
+    """--storage auto on mpi chooses from every rank's counts together (runs counted in each rank's rows and summed):
+    the serial run's storage on 1 and 3 ranks, on scene1 (36% of F non-zero) runs, as the summary says."""
     _, out = files
     picks = []
     for np_, backend in ((None, "serial"), (1, "mpi"), (3, "mpi")):
-        rec = record(radiosity("solve", out["scene"], "--ff", out["serial"][0], "--backend", backend, "--steps", "2",
-                               "--no-verify", "--json", "--quiet", np_=np_))
+        p = radiosity("solve", out["scene"], "--ff", out["serial"][0], "--backend", backend, "--steps", "2",
+                      "--no-verify", "--json", np_=np_)
+        rec = record(p)
+        assert rec["params"]["storage_requested"] == "auto"
         picks.append(rec["params"]["storage"])
-    assert picks[1] == picks[2] != "runs", picks
-    assert picks[0] == picks[1] or picks[0] == "runs", picks
+        assert f"form factors: {picks[-1]} (auto: the fewest bytes per step" in p.stdout, p.stdout
+    assert picks == ["runs"] * 3, picks
 
 
-def test_mpi_memory_check_counts_the_sparse_storage(files, tmp_path):
-    """--max-memory-per-rank with csr: what a rank needs is its dense rows while its matrix is built and that
-    matrix (the record's rank_need_bytes); a byte less is refused on every rank with one line, exit 2."""
+@pytest.mark.parametrize("storage,values", [("csr", "float32"), ("runs", "float32"), ("runs", "float16")])
+def test_mpi_memory_check_counts_the_sparse_storage(files, tmp_path, storage, values):
+    """--max-memory-per-rank with csr or runs: what a rank needs (the record's rank_need_bytes, counted before the
+    matrix is built) is its dense rows while its matrix is built, that matrix (the bytes it then holds:
+    rank_ff_bytes) and the vectors; a byte less is refused on every rank with one line, exit 2."""
     _, out = files
-    args = ["solve", out["scene"], "--ff", out["serial"][0], "--backend", "mpi", "--storage", "csr", "--steps", "2",
-            "--no-verify", "--json", "--quiet"]
-    need = record(radiosity(*args, np_=2))["mpi"]["rank_need_bytes"]
+    args = ["solve", out["scene"], "--ff", out["serial"][0], "--backend", "mpi", "--storage", storage,
+            "--ff-precision", values, "--steps", "2", "--no-verify", "--json", "--quiet"]
+    mpi = record(radiosity(*args, np_=2))["mpi"]
+    need = mpi["rank_need_bytes"]
+    n = sum(mpi["rank_rows"])
+    vectors = (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * n  # solve_load.cpp's vector_bytes
+    assert need == [f + 4 * r * n + vectors for f, r in zip(mpi["rank_ff_bytes"], mpi["rank_rows"])], mpi
     ok = record(radiosity(*args, "--max-memory-per-rank", str(int(max(need))), np_=2))
     assert ok["mpi"]["rank_need_bytes"] == need
     p = radiosity(*args, "--max-memory-per-rank", str(int(max(need)) - 1), np_=2)
     assert p.returncode == 2, p.stderr
     lines = messages(p)
-    assert len(lines) == 1 and "in csr float32" in lines[0] and "more than --max-memory-per-rank" in lines[0], lines
+    assert len(lines) == 1 and f"in {storage} {values}" in lines[0], lines
+    assert "more than --max-memory-per-rank" in lines[0], lines
 
 
 def test_mpi_refuses_a_sparse_file(files, tmp_path):

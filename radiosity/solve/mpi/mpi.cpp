@@ -2,11 +2,11 @@
 // rows_begin..rows_end, read from the form-factor file alone: radiosity/dist/) and whole vectors, OpenMP threads
 // over its rows (--threads). Per operation:
 //   matvec  this rank's rows of y = a·x + c·ρ ⊙ (F x) + d·e, by the host backends' product (linalg.hpp's
-//           affine_matvec: dense, or csr_kernels.hpp's for csr and compressed) on the rank's rows, in the system's
-//           storage (a rank's csr or compressed matrix indexes every row and holds only its own: ff_matrix.hpp); x
-//           must be whole, so a vector whose rows were changed since it was last whole is first gathered in place
-//           (MPI_Allgatherv of every rank's block): in Jacobi that is the radiosity after every step, in BiCG-STAB
-//           p and s (and x at a restart);
+//           affine_matvec: dense, or csr_kernels.hpp's for csr, compressed and runs) on the rank's rows, in the
+//           system's storage (a rank's csr, compressed or runs matrix indexes every row and holds only its own:
+//           ff_matrix.hpp); x must be whole, so a vector whose rows were changed since it was last whole is first
+//           gathered in place (MPI_Allgatherv of every rank's block): in Jacobi that is the radiosity after every
+//           step, in BiCG-STAB p and s (and x at a restart);
 //   dot, dist2  over this rank's rows, summed over ranks by MPI_Allreduce (3 doubles);
 //   axpby, copy  this rank's rows only (O(n/P), no communication).
 // A row's sums are those of backend openmp bit for bit in the same storage (the same function for a row, whichever
@@ -90,11 +90,17 @@ class MpiKernels final : public Kernels<T> {
       held_bytes_ = v * double(last_ - first_) * double(n_);
       matrix_bytes_ = v * double(rows_.empty() ? n_ : rows_.size()) * double(n_);
     } else {
-      const double per_entry = v + (F_.storage == FFStorage::csr ? sizeof(int32_t) : sizeof(uint16_t));
-      double entries = double(F_.row_start[last_] - F_.row_start[first_]);
-      held_bytes_ = entries * per_entry + sizeof(int64_t) * double(n_ + 1);
-      MPI_Allreduce(MPI_IN_PLACE, &entries, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-      matrix_bytes_ = entries * per_entry + sizeof(int64_t) * double(n_ + 1);
+      // Entries (compressed: bridges included; runs: stored values) and runs of this rank's rows, as ff_storage_bytes
+      // counts them (a csr or compressed entry is one kept value or bridge to it).
+      double counts[2] = {double(F_.row_start[last_] - F_.row_start[first_]),
+                          F_.run_start ? double(F_.run_start[last_] - F_.run_start[first_]) : 0.0};
+      auto bytes = [&] {
+        const RunCounts runs{size_t(counts[1]), size_t(counts[0])};
+        return ff_storage_bytes(F_.storage, F_.values, n_, size_t(counts[0]), 0, runs);
+      };
+      held_bytes_ = bytes();
+      MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+      matrix_bytes_ = bytes();
     }
     load(ex_, rho_, sys.reflectivity);
     load(ex_, e_, sys.emission);
@@ -193,7 +199,7 @@ class MpiKernels final : public Kernels<T> {
   }
 
   size_t n_, first_, last_;
-  FFMatrixView F_;              // dense: this rank's rows, from first_ on; csr, compressed: every row, its own kept
+  FFMatrixView F_;              // dense: this rank's rows, from first_ on; sparse: every row indexed, its own held
   std::vector<int32_t> rows_;   // the rows a product computes (empty: all); each rank takes those in its block
   OpenMPExec ex_;               // all n rows: loading and fetching whole vectors
   BlockExec mine_;              // this rank's rows

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include "common/errors.hpp"
 #include "radiosity/solve/storage/half.hpp"
@@ -226,8 +225,7 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
     return;
   }
   if (opt.storage == FFStorage::runs) {
-    if (r0 != 0 || r1 != n) throw std::invalid_argument("form-factor matrix: runs are built from every row of F");
-    build_runs(F, reflectivity, store, allocate);
+    build_runs(F, reflectivity, r0, r1, store, allocate);
     return;
   }
   // CSR and compressed in two passes: the entries per row (kept values, and bridges for compressed), their prefix
@@ -285,25 +283,27 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
 }
 
 // The runs storage in two passes, as csr's: each row's runs and values (row_runs), their prefix sums as the row
-// starts, then the runs and values in place (kRunValuePad zeros past the last value).
+// starts, then the runs and values in place (kRunValuePad zeros past the last value). Rows [r0, r1) are F's, row i
+// at F + (i - r0)·n; the others are left empty.
 template <class Store, class Allocate>
-void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflectivity, Store& store,
-                                  Allocate& allocate) {
+void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1,
+                                  Store& store, Allocate& allocate) {
   const size_t n = n_;
   const FFMatrixOptions& o = opt_;
   row_start_.assign(n + 1, 0);
   run_start_.assign(n + 1, 0);
   size_t kept = 0, bridges = 0;
 #pragma omp parallel for schedule(static) reduction(+ : kept, bridges)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = r0; i < r1; ++i) {
     if (!row_needed(reflectivity[i])) continue;
+    const float* Fi = F + (i - r0) * n;
     size_t runs = 0, entries = 0;
-    row_runs(F + i * n, n, o, [&](size_t, size_t length) {
+    row_runs(Fi, n, o, [&](size_t, size_t length) {
       ++runs;
       entries += length;
       bridges += length == 0;
     });
-    for (size_t j = 0; j < n; ++j) kept += is_kept(F[i * n + j], o.threshold);
+    for (size_t j = 0; j < n; ++j) kept += is_kept(Fi[j], o.threshold);
     row_start_[i + 1] = int64_t(entries);
     run_start_[i + 1] = int64_t(runs);
   }
@@ -317,10 +317,10 @@ void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflec
   for (size_t k = size_t(row_start_[n]); k < size_t(row_start_[n]) + kRunValuePad; ++k) store(k, 0.0f);
   run_.resize(size_t(run_start_[n]));
 #pragma omp parallel for schedule(dynamic, 16)
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = r0; i < r1; ++i) {
     size_t k = size_t(row_start_[i]), r = size_t(run_start_[i]), j = 0;
     if (r == size_t(run_start_[i + 1])) continue;
-    const float* Fi = F + i * n;
+    const float* Fi = F + (i - r0) * n;
     row_runs(Fi, n, o, [&](size_t step, size_t length) {
       run_[r++] = FFRun{uint16_t(step), uint16_t(length)};
       j += step;

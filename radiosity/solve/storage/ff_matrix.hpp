@@ -102,6 +102,11 @@ inline constexpr uint32_t kRunMergeGap = 4;
 // on its length (runs_kernels.hpp). Files written with longer runs still load: the product takes those in a loop.
 inline constexpr uint32_t kRunMaxLength = 16;
 
+// What a run costs in the product, in stored values (the first cost model above: b/a = 2.3/0.3, about 8): backend mpi
+// balances a runs matrix's rows between ranks by their stored values, kRunCost a run and csr_kernels.hpp's kRowCost
+// a row (app/solve_load.cpp).
+inline constexpr size_t kRunCost = 8;
+
 struct FFMatrixOptions {
   FFStorage storage = FFStorage::dense;
   FFValues values = FFValues::float32;
@@ -169,8 +174,9 @@ class FormFactorMatrix {
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
   // rows of patches with reflectivity 0 left empty in csr, compressed and runs. Throws UsageError for n beyond int32
   // column indices. F may hold only rows [row_begin, row_end) (an MPI rank's block, F pointing at its first row):
-  // dense keeps those rows (row i at (i - row_begin)·n), csr and compressed index every row (n + 1 row starts) and
-  // leave the others empty, so that the kernels address row i alike on every rank; runs is built whole only.
+  // dense keeps those rows (row i at (i - row_begin)·n), csr, compressed and runs index every row (n + 1 row
+  // starts, and runs n + 1 run starts) and leave the others empty, so that the kernels address row i alike on every
+  // rank (a row's entries and runs are the same as in the whole matrix's).
   FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
                    size_t row_begin = 0, size_t row_end = SIZE_MAX);
   FFMatrixView view() const;
@@ -182,7 +188,8 @@ class FormFactorMatrix {
 
  private:
   template <class Store, class Allocate>
-  void build_runs(const float* F, const std::vector<Rgb>& reflectivity, Store& store, Allocate& allocate);
+  void build_runs(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1, Store& store,
+                  Allocate& allocate);
 
   size_t n_, kept_ = 0, bridges_ = 0;
   FFMatrixOptions opt_;

@@ -293,18 +293,24 @@ TEST(Sparse, RowsAreSplitByEntries) {
 }
 
 // auto: the fewest bytes per step of the storages the backend reads. Room3's density (18%) takes runs in float32
-// and 16 bits on the CPU (compressed where runs are not read: the GPU backends, which read the sparse storages and
-// dense float32 only); a closed box (83%) keeps dense; a backend that reads dense only gets dense.
+// and 16 bits on the CPU backends, mpi included (compressed where runs are not read: the GPU backends, which read
+// the sparse storages and dense float32 only); a closed box (83%) keeps dense; a backend that reads dense only gets
+// dense.
 TEST(Sparse, AutoPicksTheFewestBytesPerStep) {
   const SolveBackend* openmp = nullptr;
   const SolveBackend* cuda = nullptr;
   const SolveBackend* hybrid = nullptr;
+  const SolveBackend* mpi = nullptr;
   for (const SolveBackend& b : solve_backends()) {
     if (b.name == "openmp") openmp = &b;
     if (b.name == "cuda") cuda = &b;
     if (b.name == "hybrid") hybrid = &b;
+    if (b.name == "mpi") mpi = &b;
   }
-  ASSERT_TRUE(openmp && cuda && hybrid);
+  ASSERT_TRUE(openmp && cuda && hybrid && mpi);
+  // mpi reads every storage, runs too (each rank its rows' runs matrix), so it picks as openmp does
+  for (FFValues v : {FFValues::float32, FFValues::float16, FFValues::bfloat16})
+    EXPECT_EQ(readable_storages(*mpi, v), readable_storages(*openmp, v)) << to_string(v);
   // room3 at R = 256, every row: 17470512 kept in 737073 runs of 19947864 values at the default merge gap
   const StorageCounts room3{9680, 17470512, 0, 9680, RunCounts{737073, 19947864}};
   for (FFValues v : {FFValues::float32, FFValues::float16}) {
@@ -476,6 +482,71 @@ TEST(Sparse, RowBlockMatrixHoldsItsRowsAsTheWholeMatrix) {
         EXPECT_EQ(std::memcmp(r.col, w.col + k0, count * 4), 0);
       else
         EXPECT_EQ(std::memcmp(r.step, w.step + k0, count * 2), 0);
+    }
+}
+
+// An MPI rank's runs matrix: built from its block of rows alone (rows of reflectivity 0 among them, bridges and
+// split runs from small largest steps), it indexes every row (row and run starts), holds each of its rows' runs and
+// values as the whole matrix holds them and leaves the others empty; the blocks of a split together hold the whole
+// matrix's values, runs, kept values and bridges, count_runs of a block counts what its matrix holds, and float16
+// with the largest value given rounds as the whole matrix does.
+TEST(Sparse, RowBlockRunsMatrixHoldsItsRowsAsTheWholeMatrix) {
+  Problem p = occluded_problem(157, 11, 0.7);
+  const size_t n = p.sys.n;
+  for (size_t i = 3; i < n; i += 7) p.sys.reflectivity[i] = Rgb{0, 0, 0};
+  const std::vector<size_t> bounds = {0, 0, 40, 41, 97, 157};  // an empty block, a block of one row
+  for (uint32_t max_step : {1u, 3u, 40u, kMaxStep})
+    for (FFValues v : {FFValues::float32, FFValues::float16}) {
+      SCOPED_TRACE(std::to_string(max_step) + " " + to_string(v));
+      FFMatrixOptions o;
+      o.storage = FFStorage::runs;
+      o.values = v;
+      o.max_step = max_step;
+      const FormFactorMatrix whole(p.F.data(), n, p.sys.reflectivity, o);
+      const FFMatrixView w = whole.view();
+      if (max_step <= 3) {
+        ASSERT_GT(whole.bridges(), 0u);  // long gaps bridged
+      }
+      o.largest = largest_abs(p.F.data(), n * n);
+      size_t kept = 0, bridges = 0, runs = 0, entries = 0;
+      const size_t vb = value_bytes(v);
+      for (size_t b = 0; b + 1 < bounds.size(); ++b) {
+        const size_t b0 = bounds[b], b1 = bounds[b + 1];
+        const FormFactorMatrix part(p.F.data() + b0 * n, n, p.sys.reflectivity, o, b0, b1);
+        const FFMatrixView r = part.view();
+        ASSERT_EQ(r.scale, w.scale);
+        ASSERT_EQ(r.row_start[0], 0);
+        ASSERT_EQ(r.run_start[0], 0);
+        for (size_t i = 0; i < n; ++i) {
+          const bool mine = i >= b0 && i < b1;
+          const int64_t len = r.row_start[i + 1] - r.row_start[i], count = r.run_start[i + 1] - r.run_start[i];
+          ASSERT_EQ(len, mine ? w.row_start[i + 1] - w.row_start[i] : 0) << i;
+          ASSERT_EQ(count, mine ? w.run_start[i + 1] - w.run_start[i] : 0) << i;
+          if (!mine || count == 0) continue;
+          EXPECT_EQ(std::memcmp(r.run + r.run_start[i], w.run + w.run_start[i], size_t(count) * sizeof(FFRun)), 0) << i;
+          EXPECT_EQ(std::memcmp(static_cast<const char*>(r.data) + size_t(r.row_start[i]) * vb,
+                                static_cast<const char*>(w.data) + size_t(w.row_start[i]) * vb, size_t(len) * vb),
+                    0)
+              << i;
+        }
+        for (size_t i = b0; i < b1; ++i) {
+          if (!row_needed(p.sys.reflectivity[i])) {
+            EXPECT_EQ(r.run_start[i + 1], r.run_start[i]) << i;
+          }
+        }
+        const RunCounts counted = count_runs(p.F.data() + b0 * n, n, p.sys.reflectivity, o, b0, b1);
+        EXPECT_EQ(part.runs().runs, counted.runs);
+        EXPECT_EQ(part.runs().entries, counted.entries);
+        EXPECT_DOUBLE_EQ(part.bytes(), ff_storage_bytes(FFStorage::runs, v, n, 0, 0, counted));
+        kept += part.kept();
+        bridges += part.bridges();
+        runs += part.runs().runs;
+        entries += part.runs().entries;
+      }
+      EXPECT_EQ(kept, whole.kept());
+      EXPECT_EQ(bridges, whole.bridges());
+      EXPECT_EQ(runs, whole.runs().runs);
+      EXPECT_EQ(entries, whole.runs().entries);
     }
 }
 
