@@ -39,7 +39,9 @@ TEST(Problem, StencilOfExactSolutionMatchesScaledRhs) {
         const double au = 4 * g.u(i, j) - g.u(i - 1, j) - g.u(i + 1, j) - g.u(i, j - 1) - g.u(i, j + 1);
         worst = std::max(worst, std::abs(au - g.b(i, j)));
       }
-    if (prev > 0) EXPECT_NEAR(prev / worst, 16.0, 1.0) << "n = " << n;
+    if (prev > 0) {
+      EXPECT_NEAR(prev / worst, 16.0, 1.0) << "n = " << n;
+    }
     prev = worst;
   }
 }
