@@ -1,12 +1,14 @@
 // The k-right-hand-side product over sparse storages (multi_runs_kernels.hpp) against references it does not share
 // its sums with: k single products of the same storage (affine_matvec: runs_rows, sparse_rows) and the dense
 // k-product (linalg.hpp's multi_matvec_rows), with rows of reflectivity 0 (empty in the sparse storages), an empty
-// row, runs of every length from 1 to past two blocks, k on both sides of the group of right-hand sides, 1 and 2
-// threads.
+// row, runs of every length from 1 to 40 cut where the column chunks end, every column width (k = 2, 3, 8) and two
+// groups of right-hand sides (k = 11), 1 and 2 threads (the same bits).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "radiosity/solve/cpu/exec.hpp"
@@ -86,11 +88,12 @@ TEST(MultiSparseProduct, EqualsSingleProductsAndTheDenseKProduct) {
     if (st == FFStorage::runs) {
       ASSERT_GT(M.runs().runs, 4 * n);  // many runs a row, not one
     }
+    std::map<size_t, std::vector<std::vector<Rgb>>> one_thread;  // k: each right-hand side's y with 1 thread
     for (int threads : {1, 2}) {
       const OpenMPExec ex(threads);
       Soa<float> rs(n);
       load(ex, rs, rho);
-      for (size_t k : {1, 3, 8, 11}) {
+      for (size_t k : {1, 2, 3, 8, 11}) {
         Vectors v = make_vectors(ex, n, k, 99 + k);
         Vectors w = make_vectors(ex, n, k, 99 + k);  // the same values: the dense k-product's
         multi_affine_matvec<OpenMPExec, float>(ex, M.view(), rows, v.X, v.Y, rs, v.E, 0.5f, 0.9f, 1.0f);
@@ -106,6 +109,10 @@ TEST(MultiSparseProduct, EqualsSingleProductsAndTheDenseKProduct) {
           store(ex, v.Y[q], got);
           store(ex, w.Y[q], from_dense);
           EXPECT_LT(rel_diff(got, single), 1e-6) << at;
+          if (threads == 1)
+            one_thread[k].push_back(got);
+          else  // a row's sums do not depend on the rows beside it or the thread that takes it
+            EXPECT_EQ(rel_diff(got, one_thread[k][q]), 0.0) << at;
           EXPECT_LT(rel_diff(got, from_dense), 1e-6) << at;
           if (st == FFStorage::runs && k == 1) {
             EXPECT_EQ(rel_diff(got, single), 0.0) << at;  // runs_rows itself
