@@ -7,9 +7,10 @@
 // W floats (every right-hand side's three channels of patch j side by side), so that one value F_ij multiplies a
 // whole column in W/16 zmm and W%16/8 ymm fused multiply-adds with F_ij broadcast, and a row's k×3 sums stay W
 // floats in registers (no horizontal sums). The columns go in chunks whose x fits L1, kChunkRows rows at a time.
-// Measured on room3 (k = 8, float32, 2 threads, this project's VM, alternating): a register group of 8 right-hand
-// sides over the SOA x read x (930 KB) from L2/L3 for every value: 41 ms; the transposed, chunked product 13-18 ms.
-// Its cost is the loop over a row's values (k = 2 costs 10 ms of k = 8's 13), not the multiply-adds.
+// Measured on room3 (k = 8, float32, 2 threads, this project's shared VM): a register group of 8 right-hand sides
+// over the SOA x read x (930 KB) from L2/L3 for every value: 41 ms; this product 12.5-22 ms (README). Its cost is
+// the loop over a row's values, not the multiply-adds or F's bytes: k = 2 costs 15-17 ms of k = 8's 19-22, float16
+// as much as float32.
 // k = 1 is the one-right-hand-side product (runs_rows): the same bits as affine_matvec. Other element types
 // (double: the light basis) and builds without AVX2 take a plain loop (PlainRunSums) per right-hand side, a row's
 // values from L1 after the first.
