@@ -1,7 +1,8 @@
 // The product with k right-hand sides, Y_q = a·X_q + c·ρ ⊙ (F X_q) + d·E_q for q < k (relighting: linalg.hpp's
 // multi_affine_matvec), for F in a sparse storage (ff_matrix.hpp): runs, csr, compressed. Rows are shared out
-// between threads by their entries (csr_kernels.hpp's entry_block), and all k×3 sums of a row come from one pass
-// over its entries.
+// between threads by their entries (csr_kernels.hpp's entry_block), and a row's k×3 sums come from one pass over its
+// entries (the SIMD runs product: one per group of 8 right-hand sides; the plain one: one per right-hand side, the
+// row's values from L1 after the first).
 //
 // runs, float (AVX2/AVX-512 builds): chunked_runs_matvec below. x is transposed once per product into columns of
 // W floats (every right-hand side's three channels of patch j side by side), so that one value F_ij multiplies a
