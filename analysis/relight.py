@@ -90,16 +90,19 @@ def bench_table(preset):
     b = df[df["params.bench_rhs"].notna()].copy()
     if b.empty:
         return None, None
-    t = b.groupby(["params.ff_precision", "params.bench_rhs"]).agg(
+    # records from before --storage read dense F
+    b["params.storage"] = b["params.storage"].fillna("dense") if "params.storage" in b.columns else "dense"
+    t = b.groupby(["params.storage", "params.ff_precision", "params.bench_rhs"]).agg(
         product_ms=("result.product_ms_median", "median"), single_ms=("result.single_product_ms_median", "median"),
         gbps=("result.bandwidth_GBps", "median"),
         alt=("result.over_k1_alternating", "median")).reset_index()
-    t.columns = ["ff_precision", "k", "product_ms", "single_product_ms", "F_GBps", "over_k1_alternating"]
+    t.columns = ["storage", "ff_precision", "k", "product_ms", "single_product_ms", "F_GBps", "over_k1_alternating"]
     t["k"] = t["k"].astype(int)
     t["per_rhs_ms"] = t["product_ms"] / t["k"]
-    one = t[t["k"] == 1].set_index("ff_precision")["product_ms"]
-    t["over_k1"] = [r.product_ms / one.get(r.ff_precision, np.nan) for r in t.itertuples()]
-    notes = ["One pass over room3's F for k right-hand sides of three channels each (linalg.hpp's multi_affine_matvec), "
+    one = t[t["k"] == 1].set_index(["storage", "ff_precision"])["product_ms"]
+    t["over_k1"] = [r.product_ms / one.get((r.storage, r.ff_precision), np.nan) for r in t.itertuples()]
+    notes = ["One pass over room3's F (in the storage of the row) for k right-hand sides of three channels each "
+             "(linalg.hpp's multi_affine_matvec; runs: multi_runs_kernels.hpp), "
              "median of 10 timed products; single_product_ms: the solvers' one-right-hand-side product (affine_matvec) "
              "on the same F beside it; over_k1: the k-product's time over the k = 1 case's (separate runs); "
              "over_k1_alternating: over the k = 1 product timed in turns with it in the same run (the ratio that holds "
@@ -112,8 +115,8 @@ def plot(preset, t):
     if t is None or not writing():
         return None
     fig, ax = plt.subplots(figsize=(5, 3.5))
-    for prec, g in t.groupby("ff_precision"):
-        ax.plot(g["k"], g["per_rhs_ms"], "o-", label=f"F in {prec}")
+    for (st, prec), g in t.groupby(["storage", "ff_precision"]):
+        ax.plot(g["k"], g["per_rhs_ms"], "o-", label=f"F {st} {prec}")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("right-hand sides k")
     ax.set_ylabel("ms per right-hand side")

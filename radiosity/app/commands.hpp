@@ -90,6 +90,7 @@ struct RelightArgs : SceneArgs {
   double basis_tol = 1e-7;
   SolveConfig cfg;                       // the reflectivity frames' solves (cfg.tol: --tol)
   std::string ff_precision = "float32";  // how the reflectivity frames' F is stored
+  std::string storage = "auto";          // F's storage (basis, frames, bench): auto | dense | csr | compressed | runs
   double frame_budget_ms = 0;
   long check_every = 0;
   long record_patches = 0;

@@ -28,7 +28,7 @@ namespace {
 using namespace radiosity::relight;
 
 // The product with k right-hand sides, timed (make bench): passes products after one untimed warm-up.
-int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view, nlohmann::json& rec) {
+int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view, double bytes, nlohmann::json& rec) {
   const size_t n = m.size(), k = size_t(a.bench_rhs);
   const OpenMPExec ex(a.threads);
   std::vector<Rgb> rho_host(n), e(n);
@@ -72,7 +72,7 @@ int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view,
       if (p > 0) single_ms.push_back(t.seconds() * 1e3);
     }
   }
-  const double med = percentile(ms, 50), bytes = double(n) * double(n) * double(value_bytes(view.values));
+  const double med = percentile(ms, 50);
   rec["result"] = {{"rhs", k},
                    {"product_ms_median", med},
                    {"product_ms", ms},
@@ -84,10 +84,11 @@ int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view,
                    {"bandwidth_GBps", bytes / (med * 1e-3) / 1e9},
                    {"threads", ex.threads()}};
   if (!a.quiet)
-    std::printf("relight --bench-rhs %zu: %s F of %zu patches, %d threads: product %.3f ms (median of %ld), %.3f ms per "
-                "right-hand side, %.2f GB/s of F; k = 1 in turns with it %.3f ms (ratio %.2f); one-right-hand-side solver "
-                "product %.3f ms\n",
-                k, to_string(view.values), n, ex.threads(), med, a.passes, med / double(k), bytes / (med * 1e-3) / 1e9,
+    std::printf("relight --bench-rhs %zu: %s %s F of %zu patches (%.1f MB), %d threads: product %.3f ms (median of "
+                "%ld), %.3f ms per right-hand side, %.2f GB/s of F; k = 1 in turns with it %.3f ms (ratio %.2f); "
+                "one-right-hand-side solver product %.3f ms\n",
+                k, to_string(view.storage), to_string(view.values), n, bytes / 1e6, ex.threads(), med, a.passes,
+                med / double(k), bytes / (med * 1e-3) / 1e9,
                 percentile(one_ms, 50), med / percentile(one_ms, 50), percentile(single_ms, 50));
   return 0;
 }
@@ -120,6 +121,11 @@ void add_relight(CLI::App& app, RelightArgs& a) {
   add_choice(cmd, "--precision", a.cfg.precision, parse_precision, "reflectivity frames: float | double");
   cmd->add_option("--ff-precision", a.ff_precision, "reflectivity frames: F stored as float32 | float16 | bfloat16")
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
+  cmd->add_option("--storage", a.storage,
+                  "F held as auto (of those the frames' backend reads, the one with the fewest bytes per product, "
+                  "sparse below half of dense's) | dense | csr | compressed | runs: the light basis, the reflectivity "
+                  "frames and --bench-rhs read it")
+      ->check(CLI::IsMember({"auto", "dense", "csr", "compressed", "runs"}))->capture_default_str();
   a.cfg.tol = 1e-4;
   cmd->add_option("--tol", a.cfg.tol, "reflectivity frames: stop at this relative residual")->capture_default_str();
   cmd->add_option("--max-iter", a.cfg.max_iter, "reflectivity frames: iteration limit")->check(CLI::PositiveNumber)
@@ -161,12 +167,16 @@ int run_relight(const RelightArgs& a) {
                    {"patches", in.m.size()},     {"divide", a.load.divide},
                    {"ff_file", a.ff},            {"hemicube", in.ff.params.resolution},
                    {"weights", to_string(in.ff.params.weights)},
-                   {"ff_precision", a.ff_precision}};
+                   {"ff_precision", a.ff_precision},
+                   {"storage", to_string(in.storage)},
+                   {"storage_requested", a.storage}};
   if (a.bench_rhs > 0) {
     rec["params"]["bench_rhs"] = a.bench_rhs;
     rec["params"]["passes"] = a.passes;
-    bench_product(a, in.m, in.frame_view, rec);
-    rec["times_s"] = {{"load", in.load_s}, {"ff_load", in.ff_load_s}, {"total", total.seconds()}};
+    if (!a.quiet) std::printf("relight: form factors %s\n", storage_words(p, in).c_str());
+    bench_product(a, in.m, in.frame_view, in.frame_bytes, rec);
+    rec["times_s"] = {{"load", in.load_s}, {"ff_load", in.ff_load_s}, {"ff_build", in.ff_build_s},
+                      {"total", total.seconds()}};
     hpcgi::record::emit(rec, a);
     return 0;
   }
@@ -174,10 +184,10 @@ int run_relight(const RelightArgs& a) {
   bopt.tol = a.basis_tol;
   bopt.threads = a.threads;
   bool loaded = false;
-  const LightBasis basis = load_or_solve_basis(a.basis, in.m, a.ff, in.file_view, in.lights, bopt, &loaded);
+  const LightBasis basis = load_or_solve_basis(a.basis, in.m, a.ff, in.basis_view, in.lights, bopt, &loaded);
   const ServedFrames served = serve_frames(a, p, in, basis);
   relight_record(rec, a, in, basis, loaded, served, total.seconds());
-  if (!a.quiet) print_relight_summary(a, in, basis, loaded, served);
+  if (!a.quiet) print_relight_summary(a, p, in, basis, loaded, served);
   hpcgi::record::set_outcome(rec, served.outcome);
   hpcgi::record::emit(rec, a);
   hpcgi::finish(served.outcome);

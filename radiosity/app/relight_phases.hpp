@@ -3,6 +3,7 @@
 // or solved warm from the previous one) and report (the record and the printed summary).
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@ namespace radiosity::app {
 
 struct RelightPlan {
   FFValues values = FFValues::float32;  // --ff-precision of the reflectivity frames
+  std::optional<FFStorage> storage;     // --storage; none: auto (storage_choice.hpp, by the frames' values)
   int width = 0, height = 0;            // --size of --png-frames
 };
 // Throws hpcgi::UsageError for a request that cannot run: the picture size, the reflectivity frames' backend and
@@ -32,10 +34,22 @@ struct RelightInputs {
   std::vector<relight::Frame> frames;  // every frame read and checked before anything is computed
   Camera cam;
   FormFactors ff;
-  std::unique_ptr<FormFactorMatrix> matrix;  // the reflectivity frames' F in 16 bits, when asked
-  FFMatrixView file_view, frame_view;        // F as read, and as the reflectivity frames read it
-  double load_s = 0, ff_load_s = 0;
+  // F in --storage: the reflectivity frames' (and --bench-rhs's) in --ff-precision, the light basis's in float32;
+  // none where that is the file's dense float32. A sparse one holds the rows of every patch the scene or a frame
+  // makes reflective (reflective_somewhere).
+  FFStorage storage = FFStorage::dense;
+  std::unique_ptr<FormFactorMatrix> matrix, basis_matrix;
+  FFMatrixView file_view, frame_view, basis_view;  // F as read, as the reflectivity frames and the basis read it
+  double frame_bytes = 0;                          // what frame_view holds
+  double load_s = 0, ff_load_s = 0, ff_build_s = 0;
 };
+// The scene's reflectivity, and for a patch it gives 0 the first non-zero one a frame gives it: the rows a sparse F
+// must hold so that every frame reads F's row of every reflective patch.
+std::vector<Rgb> reflective_somewhere(const Mesh& m, const std::vector<relight::NamedEntity>& named,
+                                      const std::vector<relight::Frame>& frames);
+// "runs (auto: ...)" or "runs": the storage as the summaries print it.
+std::string storage_words(const RelightPlan& p, const RelightInputs& in);
+
 // Fills `in` in place (the views point into its form factors); the memory check comes before F is read.
 void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in);
 
@@ -58,7 +72,7 @@ double percentile(std::vector<double> v, double p);
 // The record's params, result and times, and the printed summary.
 void relight_record(nlohmann::json& rec, const RelightArgs& a, const RelightInputs& in, const relight::LightBasis& basis,
                     bool basis_loaded, const ServedFrames& s, double total_s);
-void print_relight_summary(const RelightArgs& a, const RelightInputs& in, const relight::LightBasis& basis,
+void print_relight_summary(const RelightArgs& a, const RelightPlan& p, const RelightInputs& in, const relight::LightBasis& basis,
                            bool basis_loaded, const ServedFrames& s);
 
 }  // namespace radiosity::app

@@ -6,6 +6,7 @@
 #include "common/timer.hpp"
 #include "radiosity/app/relight_phases.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/solve/storage/storage_choice.hpp"
 
 namespace radiosity::app {
 
@@ -18,11 +19,60 @@ RelightPlan plan_relight(const RelightArgs& a) {
   // The reflectivity frames' configuration and the storage their backend reads are checked before anything is read
   // or written, by the library's rules (solve.hpp: check_config, require_storage).
   check_config(a.cfg);
-  require_storage(require_backend(a.cfg.backend), FFStorage::dense, p.values);
+  const SolveBackend& b = require_backend(a.cfg.backend);
+  if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
+  require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.
   check_files(a, {{a.basis, "--basis"}}, {{a.ff, "--ff"}, {a.frames, "--frames"}});
   return p;
 }
+
+std::vector<Rgb> reflective_somewhere(const Mesh& m, const std::vector<NamedEntity>& named,
+                                      const std::vector<Frame>& frames) {
+  std::vector<Rgb> rho(m.size());
+  for (size_t i = 0; i < m.size(); ++i) rho[i] = m.patches[i].reflectivity;
+  for (const Frame& f : frames) {
+    if (f.scene_reflectivity) continue;
+    const Mesh fm = frame_mesh(m, named, f);
+    for (size_t i = 0; i < m.size(); ++i)
+      if (!row_needed(rho[i]) && row_needed(fm.patches[i].reflectivity)) rho[i] = fm.patches[i].reflectivity;
+  }
+  return rho;
+}
+
+namespace {
+
+// F in the run's storage (--storage, or auto by the frames' values: storage_choice.hpp, as solve chooses) and
+// precision, built from the file's dense values as solve builds it; the light basis's in float32.
+void build_relight_matrices(const RelightArgs& a, const RelightPlan& p, RelightInputs& in) {
+  hpcgi::Timer t;
+  const size_t n = in.m.size();
+  const float* F = in.ff.values.data();
+  const std::vector<Rgb> rho = reflective_somewhere(in.m, in.named, in.frames);
+  if (p.storage) {
+    in.storage = *p.storage;
+  } else {
+    const std::vector<FFStorage> readable = readable_storages(require_backend(a.cfg.backend), p.values);
+    in.storage = fewest_bytes_storage(readable, p.values, count_storages(F, n, rho, 0, readable));
+  }
+  auto build = [&](FFValues values) {
+    FFMatrixOptions opt;
+    opt.storage = in.storage;
+    opt.values = values;
+    return std::make_unique<FormFactorMatrix>(F, n, rho, opt);
+  };
+  if (in.storage != FFStorage::dense || p.values != FFValues::float32) in.matrix = build(p.values);
+  if (in.storage != FFStorage::dense) in.basis_matrix = p.values == FFValues::float32 ? nullptr : build(FFValues::float32);
+  in.file_view = dense_float32_view(F, n);
+  in.frame_view = in.matrix ? in.matrix->view() : in.file_view;
+  in.frame_bytes = in.matrix ? in.matrix->bytes() : 4.0 * double(n) * double(n);
+  in.basis_view = in.basis_matrix                                  ? in.basis_matrix->view()
+                  : in.storage != FFStorage::dense ? in.frame_view  // float32 already
+                                                   : in.file_view;
+  in.ff_build_s = t.seconds();
+}
+
+}  // namespace
 
 void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in) {
   in.m = load_scene(a, &in.load_s);
@@ -35,20 +85,14 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
     in.frames = read_frames(a.frames, in.m, in.named, a.load.allow_reflectivity_ge_1);
   in.cam = parse_view(a.view, in.m);
   const double n2 = double(n) * double(n);
-  hpcgi::require_host_memory("relighting " + std::to_string(n) + " patches (dense float32 form factors and a 16-bit "
-                             "copy)", 4 * n2 + (p.values != FFValues::float32 ? 2 * n2 : 0));
+  // At most: the dense values, a 16-bit dense copy for the frames (a sparse copy holds fewer values) and a float32
+  // sparse one for the light basis (fewer than the dense values, and then no dense copy).
+  hpcgi::require_host_memory("relighting " + std::to_string(n) + " patches (dense float32 form factors and a "
+                             "copy in --storage)", 4 * n2 + (p.values != FFValues::float32 || p.storage != FFStorage::dense ? 4 * n2 : 0));
   hpcgi::Timer t;
   in.ff = load_form_factors(a.ff, in.m);
   in.ff_load_s = t.seconds();
-  if (p.values != FFValues::float32) {
-    std::vector<Rgb> rho(n);
-    for (size_t i = 0; i < n; ++i) rho[i] = in.m.patches[i].reflectivity;
-    FFMatrixOptions opt;
-    opt.values = p.values;
-    in.matrix = std::make_unique<FormFactorMatrix>(in.ff.values.data(), n, rho, opt);
-  }
-  in.file_view = dense_float32_view(in.ff.values.data(), n);
-  in.frame_view = in.matrix ? in.matrix->view() : in.file_view;
+  build_relight_matrices(a, p, in);
 }
 
 }  // namespace radiosity::app

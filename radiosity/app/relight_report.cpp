@@ -66,15 +66,25 @@ void relight_record(nlohmann::json& rec, const RelightArgs& a, const RelightInpu
                    {"checked_frames", s.checked},
                    {"worst_error", or_null(s.checked > 0, s.worst_error)},
                    {"per_frame", s.per_frame}};
-  rec["times_s"] = {{"load", in.load_s}, {"ff_load", in.ff_load_s}, {"basis", basis.seconds}, {"total", total_s}};
+  rec["times_s"] = {{"load", in.load_s}, {"ff_load", in.ff_load_s}, {"ff_build", in.ff_build_s},
+                    {"basis", basis.seconds}, {"total", total_s}};
   rec["perf"] = {{"timer", "host wall clock; a basis frame is the mix alone (one thread), a solved frame its solve's setup and "
                            "iterations without the float64 residual check; rendering and checks excluded"}};
 }
 
-void print_relight_summary(const RelightArgs& a, const RelightInputs& in, const LightBasis& basis, bool basis_loaded,
-                           const ServedFrames& s) {
+std::string storage_words(const RelightPlan& p, const RelightInputs& in) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s%s %s, %.1f MB", to_string(in.storage),
+                !p.storage ? " (auto: the fewest bytes per product, sparse below half of dense's)" : "",
+                to_string(p.values), in.frame_bytes / 1e6);
+  return buf;
+}
+
+void print_relight_summary(const RelightArgs& a, const RelightPlan& p, const RelightInputs& in,
+                           const LightBasis& basis, bool basis_loaded, const ServedFrames& s) {
   std::printf("relight: %s, %zu patches, %zu lights (%s), %zu frames\n", a.scene.c_str(), in.m.size(), in.lights.size(),
               name_list(in.lights).c_str(), in.frames.size());
+  std::printf("  form factors: %s (the light basis's in float32)\n", storage_words(p, in).c_str());
   std::printf("  light basis: %s, %ld Jacobi steps to %.1e (largest residual %.2e), %.3f s\n",
               basis_loaded ? ("read from " + a.basis).c_str() : "solved", basis.iterations, basis.tol,
               basis.max_residual, basis.seconds);

@@ -154,10 +154,11 @@ def bench(preset, p):
     # Issue 20: the product with k right-hand sides (one pass over F), room2's basis frames (its form factors at
     # R = 64, made once by slurm/bench) and room3's wall 10% darker, warm-started.
     relight = f"bin/radiosity relight {room3} --ff {ff} --threads {t}"
-    e["bench-relight"] = ("Bench: relighting: the product with k = 1 .. 16 right-hand sides on room3 (float32, float16), "
-                          "room2's basis frames, room3's wall frames warm-started", None, [
-        *(f"{relight} --bench-rhs {k} --ff-precision {v} --passes 10" for v in ("float32", "float16")
-          for k in (1, 2, 4, 8, 16)),
+    # The product in runs (what --storage auto picks on room3) and in dense beside it, each storage named.
+    e["bench-relight"] = ("Bench: relighting: the product with k = 1 .. 16 right-hand sides on room3 (runs and dense, "
+                          "float32 and float16), room2's basis frames, room3's wall frames warm-started", None, [
+        *(f"{relight} --bench-rhs {k} --ff-precision {v} --storage {st} --passes 10" for st in ("runs", "dense")
+          for v in ("float32", "float16") for k in (1, 2, 4, 8, 16)),
         f"bin/radiosity relight {{RRV_SCENES}}/room2.xml --ff {{FF_DIR}}/bench-room2.ff --threads {t} "
         f"--basis {{FF_DIR}}/bench-room2.basis --random-frames 10000",
         *(f"{relight} --basis {{FF_DIR}}/bench-room3.basis --frames radiosity/relight/frames/room3-wall.json "

@@ -131,6 +131,62 @@ def test_frame_stopped_at_max_iter_exits_4_with_its_record(scene2):
     assert ok["exit_status"] == 0 and ok["exit_reason"] is None
 
 
+def radiosity_of(rec):
+    return np.array([f["radiosity"] for f in rec["result"]["per_frame"]])
+
+
+@pytest.fixture(scope="module")
+def dark_light_scene(tmp_path_factory):
+    """scene2 with light.1's reflectivity 0 (its rows left out of a sparse F unless a frame makes it reflective)."""
+    d = tmp_path_factory.mktemp("relight-dark")
+    xml = d / "scene2-dark.xml"
+    text = SCENE2.read_text()
+    assert text.count('reflectivity=".1,.1,.1"') == 1
+    xml.write_text(text.replace('reflectivity=".1,.1,.1"', 'reflectivity="0,0,0"'))
+    ff = d / "dark.ff"
+    record(radiosity("formfactors", xml, "-o", ff, "--hemicube", "32", "--json", "--quiet"))
+    return d, xml, ff
+
+
+def test_storage_runs_agrees_with_dense_and_holds_rows_a_frame_makes_reflective(dark_light_scene):
+    d, xml, ff = dark_light_scene
+    frames = d / "frames.json"
+    frames.write_text(json.dumps({"frames": [
+        {"lights": {"light.2": {"intensity": 0.5, "rgb": [1, 0.8, 0.6]}}},  # from the basis
+        {"reflectivity": {"room.1": [0.6, 0.6, 0.6]}},
+        {"reflectivity": {"light.1": [0.5, 0.5, 0.5]}},  # rows of reflectivity 0 in the scene become needed
+        {"reflectivity": {"light.1": [0, 0, 0], "room.1": [0.54, 0.54, 0.54]}}]}))
+    recs = {}
+    for st in ("dense", "runs", "csr", "auto"):
+        recs[st] = record(radiosity("relight", xml, "--ff", ff, "--threads", "2", "--json", "--quiet", "--frames",
+                                    frames, "--tol", "1e-7", "--precision", "double", "--storage", st,
+                                    "--record-patches", 100000, "--check-every", 1))
+        assert recs[st]["params"]["storage_requested"] == st
+        if st != "auto":
+            assert recs[st]["params"]["storage"] == st
+        assert recs[st]["result"]["worst_error"] < 1e-5, (st, recs[st]["result"]["worst_error"])
+    assert recs["auto"]["params"]["storage"] in ("dense", "csr", "compressed", "runs")
+    dense = radiosity_of(recs["dense"])
+    for st in ("runs", "csr"):
+        got = radiosity_of(recs[st])
+        assert got.shape == dense.shape and got.shape[0] == 4
+        assert np.abs(got - dense).max() <= 1e-5 * np.abs(dense).max(), st
+    # without light.1's rows frame 2 would differ from dense: the light's patches reflect there
+    assert np.abs(dense[2] - dense[1]).max() > 1e-3
+
+
+def test_bench_rhs_names_its_storage_and_bad_storage_exits_2(scene2):
+    d, ff, basis = scene2
+    for st in ("runs", "dense"):
+        rec = record(relight(ff, "--bench-rhs", 3, "--passes", 1, "--storage", st, "--ff-precision", "float16"))
+        assert rec["params"]["storage"] == st and rec["result"]["rhs"] == 3
+    p = relight(ff, "--bench-rhs", 3, "--passes", 1, "--storage", "diagonal")
+    assert p.returncode == 2 and "--storage" in p.stderr, p.stderr
+    # a storage the frames' backend does not read is refused before anything is read
+    p = relight(ff, "--random-frames", 1, "--storage", "runs", "--backend", "original")
+    assert p.returncode == 2, p.stderr
+
+
 @pytest.mark.parametrize("text,reason", [
     ('{"frames": [{}, {"lights": {"lamp.7": {"intensity": 1}}}]}', "frame 1: unknown light 'lamp.7'"),
     ('{"frames": [{"lights": {"light.1": {"intensity": NaN}}}]}', "(frame 0)"),

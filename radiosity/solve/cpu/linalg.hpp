@@ -14,6 +14,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/cpu/multi_runs_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
@@ -295,20 +296,21 @@ template <class Val, class T>
   }
 }
 
-// The k-right-hand-side product for a dense stored matrix (ff_matrix.hpp), every needed row computed (rows:
-// dense_rows_to_compute; the other rows, reflectivity 0, get a·X + d·E). X, Y and E hold k vectors each; Y must not
-// alias X. The float16 scale is folded into c. A CSR matrix is refused (the relighting reads dense F).
+// The k-right-hand-side product for any stored matrix (ff_matrix.hpp): dense here, every needed row computed (rows:
+// dense_rows_to_compute; the other rows, reflectivity 0, get a·X + d·E); runs, csr and compressed in
+// multi_runs_kernels.hpp (their rows of reflectivity 0 are empty: `rows` is not read). X, Y and E hold k vectors
+// each; Y must not alias X. The float16 scale is folded into c.
 template <class Exec, class T>
 void multi_affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows,
                          const std::vector<Soa<T>>& X, std::vector<Soa<T>>& Y, const Soa<T>& rho,
                          const std::vector<Soa<T>>& E, T a, T c, T d) {
   const size_t n = F.n, k = X.size();
-  if (F.storage != FFStorage::dense) throw std::invalid_argument("multi_affine_matvec: dense form factors only");
   if (Y.size() != k || E.size() != k) throw std::invalid_argument("multi_affine_matvec: X, Y and E differ in count");
   const T cs = T(double(c) * F.scale);
   auto run = [&](auto values) {
     using Val = decltype(values);
     const auto* data = static_cast<const typename Val::stored*>(F.data);
+    if (F.storage != FFStorage::dense) return multi_sparse_matvec<Val>(ex, F, X, Y, rho, E, a, cs, d);
     if (rows.empty()) {
       ex.rows(n, [&](size_t i0, size_t i1) {
         multi_matvec_rows<Val>(data, n, nullptr, X.data(), Y.data(), rho, E.data(), k, a, cs, d, i0, i1);

@@ -31,4 +31,20 @@ FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues 
   return best;
 }
 
+StorageCounts count_storages(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                             const std::vector<FFStorage>& readable) {
+  auto reads = [&](FFStorage s) { return std::find(readable.begin(), readable.end(), s) != readable.end(); };
+  StorageCounts c;
+  c.n = n;
+  c.kept = count_kept(F, n, reflectivity, threshold);
+  for (const Rgb& rho : reflectivity) c.rows_needed += row_needed(rho);
+  if (reads(FFStorage::compressed)) c.bridges = count_bridges(F, n, reflectivity, threshold);
+  if (reads(FFStorage::runs)) {
+    FFMatrixOptions opt;
+    opt.threshold = threshold;
+    c.runs = count_runs(F, n, reflectivity, opt);
+  }
+  return c;
+}
+
 }  // namespace radiosity

@@ -38,4 +38,10 @@ inline constexpr double kSparseShare = 0.5;
 // where dense is readable (dense on a tie; else the first of the fewest).
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c);
 
+// The counts of a whole n×n dense float32 F held by one process (a multi-process solve sums its ranks' counts
+// itself: solve_load.cpp): kept values, rows needed, and the bridges and runs where `readable` holds compressed and
+// runs (else 0: not counted, so not to be chosen).
+StorageCounts count_storages(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                             const std::vector<FFStorage>& readable);
+
 }  // namespace radiosity

@@ -38,7 +38,7 @@ class RelightPhases : public ::testing::Test {
     relight::BasisOptions bopt;
     bopt.tol = args.basis_tol;
     bool loaded = false;
-    basis = relight::load_or_solve_basis("", in.m, args.ff, in.file_view, in.lights, bopt, &loaded);
+    basis = relight::load_or_solve_basis("", in.m, args.ff, in.basis_view, in.lights, bopt, &loaded);
     return serve_frames(args, p, in, basis);
   }
   std::string frames_file(const std::string& json) {
@@ -62,6 +62,36 @@ TEST_F(RelightPhases, PlanRefusesBeforeAnythingIsRead) {
   EXPECT_EQ(p.width, 400);
   EXPECT_EQ(p.height, 300);
   EXPECT_EQ(p.values, FFValues::float32);
+  EXPECT_FALSE(p.storage.has_value());  // auto
+  args.storage = "diagonal";
+  EXPECT_THROW(plan_relight(args), hpcgi::UsageError);
+  args.storage = "runs";
+  EXPECT_EQ(plan_relight(args).storage, FFStorage::runs);
+  args.cfg.backend = "original";  // reads dense float32 only
+  EXPECT_THROW(plan_relight(args), hpcgi::UsageError);
+}
+
+// --storage runs with F in float16: the frames read runs float16, the light basis runs float32, the frames agree with
+// a cold float64 solve as dense's do.
+TEST_F(RelightPhases, RunsStorageServesTheFramesAsDense) {
+  args.storage = "runs";
+  args.ff_precision = "float16";
+  const Mesh m = load_rrv_scene(args.scene, args.load);
+  const auto named = relight::named_entities(m);
+  // the reflector darker, then the light made reflective too (its rows held even where the scene gives it 0)
+  args.frames = frames_file(R"({"frames": [{}, {"reflectivity": {")" + named.back().name +
+                            R"(": [0.3, 0.3, 0.3]}}, {"reflectivity": {")" + named.front().name +
+                            R"(": [0.5, 0.5, 0.5]}}]})");
+  RelightInputs in;
+  const ServedFrames s = serve(in);
+  EXPECT_EQ(in.storage, FFStorage::runs);
+  EXPECT_EQ(in.frame_view.storage, FFStorage::runs);
+  EXPECT_EQ(in.frame_view.values, FFValues::float16);
+  EXPECT_EQ(in.basis_view.storage, FFStorage::runs);
+  EXPECT_EQ(in.basis_view.values, FFValues::float32);
+  EXPECT_EQ(s.solved, 2);
+  EXPECT_EQ(s.checked, 3);
+  EXPECT_LT(s.worst_error, 1e-3);
 }
 
 TEST_F(RelightPhases, BasisFramesAgreeWithAColdFloat64Solve) {
