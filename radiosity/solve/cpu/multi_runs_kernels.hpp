@@ -47,7 +47,7 @@ inline void multi_run_row(const typename Val::stored* f, const FFRun* u, const F
     size_t j = 0;
     for (const FFRun* r = u; r < end; ++r) {
       j += r->step;
-      acc.add(fr, x[g][0] + j, x[g][1] + j, x[g][2] + j, r->length);
+      acc.template add<0>(fr, x[g][0] + j, x[g][1] + j, x[g][2] + j, r->length);
       fr += r->length;
       j += r->length;
     }
