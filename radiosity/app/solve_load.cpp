@@ -126,31 +126,24 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
                          RunCounts* runs) {
   const System& sys = L.sys;
   // Counted over this process's rows (on MPI ranks: summed over the ranks).
-  auto kept_at = [&](double threshold) {
-    uint64_t k = count_kept(sys.F, L.n, sys.reflectivity, threshold, L.block.begin, L.block.end);
-    hpcgi::comm::sum(&k, 1);
-    return size_t(k);
-  };
-  L.kept = L.sparse_file ? L.matrix->kept() : kept_at(a.threshold);
-  *dropped = !L.sparse_file && a.threshold > 0 && L.kept != kept_at(0);
-  FFMatrixOptions run_opt;  // runs: the default merge gap and largest step
-  run_opt.threshold = a.threshold;
-  uint64_t counts[4] = {0, 0, 0, 0};  // bridges, rows needed, runs, runs' stored values
-  if (!L.sparse_file && reads_storage(*p.backend, FFStorage::compressed, p.values))
-    counts[0] = count_bridges(sys.F, L.n, sys.reflectivity, a.threshold, L.block.begin, L.block.end);
-  for (size_t i = L.block.begin; i < L.block.end; ++i) counts[1] += row_needed(sys.reflectivity[i]);
-  if (!L.sparse_file && reads_storage(*p.backend, FFStorage::runs, p.values)) {
-    const RunCounts r = count_runs(sys.F, L.n, sys.reflectivity, run_opt, L.block.begin, L.block.end);
-    counts[2] = r.runs;
-    counts[3] = r.entries;
-  }
-  hpcgi::comm::sum(counts, 4);
-  *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[0]);
-  *runs = L.sparse_file ? L.matrix->runs() : RunCounts{size_t(counts[2]), size_t(counts[3])};
+  StorageCounts c;
+  c.n = L.n;
+  if (!L.sparse_file)
+    c = count_storages(sys.F, L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
+                       L.block.begin, L.block.end);
+  uint64_t counts[6] = {c.kept, c.bridges, c.rows_needed, c.runs.runs, c.runs.entries,
+                        !L.sparse_file && a.threshold > 0 ? count_kept(sys.F, L.n, sys.reflectivity, 0, L.block.begin,
+                                                                       L.block.end)
+                                                          : c.kept};
+  hpcgi::comm::sum(counts, 6);
+  L.kept = L.sparse_file ? L.matrix->kept() : size_t(counts[0]);
+  *dropped = !L.sparse_file && a.threshold > 0 && L.kept != size_t(counts[5]);
+  *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[1]);
+  *runs = L.sparse_file ? L.matrix->runs() : RunCounts{size_t(counts[3]), size_t(counts[4])};
   if (L.sparse_file) return L.matrix->view().storage;
   if (p.storage) return *p.storage;
   return fewest_bytes_storage(readable_storages(*p.backend, p.values), p.values,
-                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[1]), *runs});
+                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[2]), *runs});
 }
 
 // The dense file's values in the run's storage and precision (the dense values are given back).

@@ -32,17 +32,18 @@ FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues 
 }
 
 StorageCounts count_storages(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
-                             const std::vector<FFStorage>& readable) {
+                             const std::vector<FFStorage>& readable, size_t row_begin, size_t row_end) {
   auto reads = [&](FFStorage s) { return std::find(readable.begin(), readable.end(), s) != readable.end(); };
+  const size_t last = std::min(row_end, n);
   StorageCounts c;
   c.n = n;
-  c.kept = count_kept(F, n, reflectivity, threshold);
-  for (const Rgb& rho : reflectivity) c.rows_needed += row_needed(rho);
-  if (reads(FFStorage::compressed)) c.bridges = count_bridges(F, n, reflectivity, threshold);
+  c.kept = count_kept(F, n, reflectivity, threshold, row_begin, last);
+  for (size_t i = row_begin; i < last; ++i) c.rows_needed += row_needed(reflectivity[i]);
+  if (reads(FFStorage::compressed)) c.bridges = count_bridges(F, n, reflectivity, threshold, row_begin, last);
   if (reads(FFStorage::runs)) {
-    FFMatrixOptions opt;
+    FFMatrixOptions opt;  // runs: the default merge gap, run length and largest step
     opt.threshold = threshold;
-    c.runs = count_runs(F, n, reflectivity, opt);
+    c.runs = count_runs(F, n, reflectivity, opt, row_begin, last);
   }
   return c;
 }

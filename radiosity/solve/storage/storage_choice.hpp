@@ -38,10 +38,12 @@ inline constexpr double kSparseShare = 0.5;
 // where dense is readable (dense on a tie; else the first of the fewest).
 FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues values, const StorageCounts& c);
 
-// The counts of a whole n×n dense float32 F held by one process (a multi-process solve sums its ranks' counts
-// itself: solve_load.cpp): kept values, rows needed, and the bridges and runs where `readable` holds compressed and
-// runs (else 0: not counted, so not to be chosen).
+// The counts of an n×n dense float32 F: kept values, rows needed, and the bridges and runs where `readable` holds
+// compressed and runs (else 0: not counted, so not to be chosen). F may hold only rows [row_begin, row_end) (an MPI
+// rank's block, F pointing at its first row): those are counted, and a multi-process solve sums its ranks' counts
+// (solve_load.cpp).
 StorageCounts count_storages(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
-                             const std::vector<FFStorage>& readable);
+                             const std::vector<FFStorage>& readable, size_t row_begin = 0,
+                             size_t row_end = SIZE_MAX);
 
 }  // namespace radiosity

@@ -12,15 +12,15 @@
 #include <vector>
 
 #include "radiosity/solve/cpu/exec.hpp"
+#include "tests/unit/relight/relight_test_util.hpp"
 #include "radiosity/solve/cpu/linalg.hpp"
 #include "radiosity/solve/cpu/multi_runs_kernels.hpp"
 
 using namespace radiosity;
+using radiosity::test::rel_diff;
+using radiosity::test::uniform;
 
 namespace {
-
-uint64_t lcg(uint64_t& s) { return s = s * 6364136223846793005ull + 1442695040888963407ull; }
-double uniform(uint64_t& s) { return double(lcg(s) >> 11) * 0x1.0p-53; }
 
 // n×n F of runs: each row alternates kept stretches of 1..40 columns and gaps of 1..20 zeros (some merged into runs
 // by kRunMergeGap, some not); row 5 is all zeros.
@@ -54,17 +54,6 @@ Vectors make_vectors(const OpenMPExec& ex, size_t n, size_t k, uint64_t seed) {
     load(ex, v.X.back(), v.xh[q]), load(ex, v.E.back(), v.eh[q]);
   }
   return v;
-}
-
-// max |a - b| over max |b|, every channel of every patch.
-double rel_diff(const std::vector<Rgb>& a, const std::vector<Rgb>& b) {
-  double num = 0, den = 0;
-  for (size_t i = 0; i < a.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      num = std::max(num, std::abs(a[i][c] - b[i][c]));
-      den = std::max(den, std::abs(b[i][c]));
-    }
-  return num / den;
 }
 
 }  // namespace

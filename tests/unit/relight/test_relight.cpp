@@ -17,16 +17,16 @@
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
 #include "radiosity/solve/cpu/exec.hpp"
+#include "tests/unit/relight/relight_test_util.hpp"
 #include "radiosity/solve/cpu/linalg.hpp"
 #include "radiosity/solve/solve.hpp"
 
 using namespace radiosity;
+using radiosity::test::rel_diff;
+using radiosity::test::uniform;
 using namespace radiosity::relight;
 
 namespace {
-
-uint64_t lcg(uint64_t& s) { return s = s * 6364136223846793005ull + 1442695040888963407ull; }
-double uniform(uint64_t& s) { return double(lcg(s) >> 11) * 0x1.0p-53; }
 
 // n patches in `entities` instances, the first `lights` of them emitting; F random with rows summing to about 0.9.
 struct Scene {
@@ -53,16 +53,6 @@ Scene make_scene(size_t n, size_t entities, size_t lights, uint64_t seed) {
   for (size_t i = 0; i < n; ++i)
     for (size_t j = 0; j < n; ++j) s.F[i * n + j] = i == j ? 0.0f : float(2 * 0.9 / double(n) * uniform(r));
   return s;
-}
-
-double rel_diff(const std::vector<Rgb>& a, const std::vector<Rgb>& b) {
-  double num = 0, den = 0;
-  for (size_t i = 0; i < a.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      num = std::max(num, std::abs(a[i][c] - b[i][c]));
-      den = std::max(den, std::abs(b[i][c]));
-    }
-  return num / den;
 }
 
 }  // namespace
