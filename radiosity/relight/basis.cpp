@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "common/errors.hpp"
 #include "common/timer.hpp"
@@ -44,11 +45,17 @@ LightBasis solve_light_basis(const Mesh& m, const FFMatrixView& F, const std::ve
     load(ex, Y.back(), e);
   }
   const std::vector<int32_t> rows = dense_rows_to_compute(rho_host);
+  // Several lights: F's row blocks, every light's product in one pass over them; one light: F as it is stored.
+  std::optional<RowBlockMatrix> blocks;
+  if (k > 1) blocks.emplace(F, rows, ex.threads());
   LightBasis basis;
   basis.n = n;
   basis.tol = opt.tol;
   for (long step = 1;; ++step) {
-    multi_affine_matvec<OpenMPExec, double>(ex, F, rows, X, Y, rho, E, 0.0, 1.0, 1.0);  // Y = E + ρ ⊙ F X
+    if (blocks)  // Y = E + ρ ⊙ F X
+      multi_affine_matvec<OpenMPExec, double>(ex, *blocks, X, Y, rho, E, 0.0, 1.0, 1.0);
+    else
+      affine_matvec(ex, F, rows, X[0], Y[0], rho, E[0], 0.0, 1.0, 1.0);
     // Y - X = E - A X: the residual of X, which is the answer once every light's is <= tol.
     double worst = 0;
     for (size_t l = 0; l < k; ++l) {

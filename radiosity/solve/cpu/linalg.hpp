@@ -14,7 +14,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/cpu/csr_kernels.hpp"
-#include "radiosity/solve/cpu/multi_runs_kernels.hpp"
+#include "radiosity/solve/cpu/row_block_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
@@ -232,109 +232,20 @@ void affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int3
 }
 
 // The product with k right-hand sides (relighting: one per light, radiosity/relight/): Y_q = a·X_q + c·ρ ⊙ (F X_q)
-// + d·E_q for q < k, each X_q three channels (SOA), all of them in ONE pass over a dense F. Four rows at a time, the
-// columns in chunks of kMultiChunk: the four rows' chunk of F (8 KiB in float32) comes from memory once and stays in
-// L1 while sums4 runs over it for every right-hand side in turn (X's chunks, 6 KiB each, from L2), so F's traffic is
-// that of one product whatever k is, and the time per right-hand side falls with k until the sums, not the reads,
-// set the pace. 16-bit values are widened once per chunk into a float buffer that all k sums read. The chunked sums
-// round differently from matvec_rows (not the same bits as k single products); the same for any k and threads.
-inline constexpr size_t kMultiChunk = 512;
-// 16-bit values are widened into a float buffer once per chunk from this many right-hand sides on; below it sums4
-// widens them as it reads (the solvers' product, whose F traffic is half float32's).
-inline constexpr size_t kWidenFrom = 4;
-
-template <class Val, class T>
-[[gnu::noinline]] void multi_matvec_rows(const typename Val::stored* F, size_t n, const int32_t* rows,
-                                         const Soa<T>* X, Soa<T>* Y, const Soa<T>& rho, const Soa<T>* E, size_t k,
-                                         T a, T c, T d, size_t k0, size_t k1) {
-  static thread_local std::vector<T> acc;  // k × kGroup × 3 partial sums
-  static thread_local std::vector<float> wide;  // 16-bit values: the four rows' chunk as float
-  acc.assign(k * kGroup * 3, T(0));
-  constexpr bool as_float = std::is_same_v<Val, Float32Values>;
-  if (!as_float && k >= kWidenFrom) wide.resize(kGroup * kMultiChunk);
-  auto row = [&](size_t q) { return rows ? size_t(rows[q]) : q; };
-  for (size_t g = k0; g < k1; g += kGroup) {
-    size_t i[kGroup];
-    const size_t here = std::min(kGroup, k1 - g);
-    for (size_t r = 0; r < kGroup; ++r) i[r] = row(r < here ? g + r : g);  // a short group repeats its first row
-    std::fill(acc.begin(), acc.end(), T(0));
-    for (size_t j0 = 0; j0 < n; j0 += kMultiChunk) {
-      const size_t m = std::min(kMultiChunk, n - j0);
-      if (as_float || k < kWidenFrom) {
-        // float32, or 16-bit values widened in the sums (sums4's load8) again for every right-hand side
-        const typename Val::stored* const Fs[kGroup] = {F + i[0] * n + j0, F + i[1] * n + j0, F + i[2] * n + j0,
-                                                         F + i[3] * n + j0};
-        for (size_t q = 0; q < k; ++q) {
-          T (&s)[kGroup][3] = *reinterpret_cast<T(*)[kGroup][3]>(acc.data() + q * kGroup * 3);
-          sums4<Val, 3>(Fs, X[q].data(0) + j0, X[q].data(1) + j0, X[q].data(2) + j0, m, s);
-        }
-        continue;
-      }
-      const float* Fr[kGroup];
-      for (size_t r = 0; r < kGroup; ++r) {
-        const typename Val::stored* src = F + i[r] * n + j0;
-        float* dst = wide.data() + r * kMultiChunk;
-        size_t j = 0;
-#ifdef HPCGI_AVX2_SUMS
-        for (; j + 8 <= m; j += 8) _mm256_storeu_ps(dst + j, Val::load8(src + j));
-#endif
-        for (; j < m; ++j) dst[j] = Val::get(src, j);
-        Fr[r] = dst;
-      }
-      const float* const Fg[kGroup] = {Fr[0], Fr[1], Fr[2], Fr[3]};
-      for (size_t q = 0; q < k; ++q) {
-        T (&s)[kGroup][3] = *reinterpret_cast<T(*)[kGroup][3]>(acc.data() + q * kGroup * 3);
-        sums4<Float32Values, 3>(Fg, X[q].data(0) + j0, X[q].data(1) + j0, X[q].data(2) + j0, m, s);
-      }
-    }
-    for (size_t q = 0; q < k; ++q) {
-      const T* s = acc.data() + q * kGroup * 3;
-      for (size_t r = 0; r < here; ++r)
-        for (int ch = 0; ch < 3; ++ch)
-          Y[q](i[r], ch) = a * X[q](i[r], ch) + c * rho(i[r], ch) * s[r * 3 + ch] + d * E[q](i[r], ch);
-    }
-  }
-}
-
-// The k-right-hand-side product for any stored matrix (ff_matrix.hpp): dense here, every needed row computed (rows:
-// dense_rows_to_compute; the other rows, reflectivity 0, get a·X + d·E); runs, csr and compressed in
-// multi_runs_kernels.hpp (their rows of reflectivity 0 are empty: `rows` is not read). X, Y and E hold k vectors
-// each; Y must not alias X. The float16 scale is folded into c.
+// + d·E_q for q < k, each X_q three channels (SOA), from F's row blocks (row_blocks.hpp; built once from F in any
+// storage, its rows of reflectivity 0 empty), all right-hand sides in one pass over them (row_block_kernels.hpp).
+// X, Y and E hold k vectors each; Y must not alias X. The float16 scale is folded into c. For k = 1 the solvers'
+// product (affine_matvec on Soa vectors) reads F's own storage and fewer bytes.
 template <class Exec, class T>
-void multi_affine_matvec(const Exec& ex, const FFMatrixView& F, const std::vector<int32_t>& rows,
-                         const std::vector<Soa<T>>& X, std::vector<Soa<T>>& Y, const Soa<T>& rho,
-                         const std::vector<Soa<T>>& E, T a, T c, T d) {
-  const size_t n = F.n, k = X.size();
-  if (Y.size() != k || E.size() != k) throw std::invalid_argument("multi_affine_matvec: X, Y and E differ in count");
-  const T cs = T(double(c) * F.scale);
-  auto run = [&](auto values) {
-    using Val = decltype(values);
-    const auto* data = static_cast<const typename Val::stored*>(F.data);
-    if (F.storage != FFStorage::dense) return multi_sparse_matvec<Val>(ex, F, X, Y, rho, E, a, cs, d);
-    if (rows.empty()) {
-      ex.rows(n, [&](size_t i0, size_t i1) {
-        multi_matvec_rows<Val>(data, n, nullptr, X.data(), Y.data(), rho, E.data(), k, a, cs, d, i0, i1);
-      });
-      return;
-    }
-    ex.rows(n, [&](size_t i0, size_t i1) {
-      const size_t lo = size_t(std::lower_bound(rows.begin(), rows.end(), int32_t(i0)) - rows.begin());
-      const size_t hi = size_t(std::lower_bound(rows.begin(), rows.end(), int32_t(i1)) - rows.begin());
-      for (size_t i = i0, q = lo; i < i1; ++i) {
-        if (q < hi && size_t(rows[q]) == i) {
-          ++q;
-          continue;
-        }
-        for (size_t p = 0; p < k; ++p)
-          for (int ch = 0; ch < 3; ++ch) Y[p](i, ch) = a * X[p](i, ch) + d * E[p](i, ch);
-      }
-      if (lo < hi) multi_matvec_rows<Val>(data, n, rows.data(), X.data(), Y.data(), rho, E.data(), k, a, cs, d, lo, hi);
-    });
-  };
-  switch (F.values) {
-    case FFValues::float32: run(Float32Values{}); break;
-    case FFValues::float16: run(Float16Values{}); break;
-    case FFValues::bfloat16: run(BFloat16Values{}); break;
+void multi_affine_matvec(const Exec& ex, const RowBlockMatrix& F, const std::vector<Soa<T>>& X,
+                         std::vector<Soa<T>>& Y, const Soa<T>& rho, const std::vector<Soa<T>>& E, T a, T c, T d) {
+  if (Y.size() != X.size() || E.size() != X.size())
+    throw std::invalid_argument("multi_affine_matvec: X, Y and E differ in count");
+  const T cs = T(double(c) * F.scale());
+  switch (F.values()) {
+    case FFValues::float32: return row_block_matvec<Float32Values>(ex, F, X, Y, rho, E, a, cs, d);
+    case FFValues::float16: return row_block_matvec<Float16Values>(ex, F, X, Y, rho, E, a, cs, d);
+    case FFValues::bfloat16: return row_block_matvec<BFloat16Values>(ex, F, X, Y, rho, E, a, cs, d);
   }
 }
 

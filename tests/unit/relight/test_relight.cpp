@@ -57,8 +57,9 @@ Scene make_scene(size_t n, size_t entities, size_t lights, uint64_t seed) {
 
 }  // namespace
 
-// Every k, every stored precision, with skipped rows (reflectivity 0): the k-RHS product gives each right-hand side
-// what the single product gives it, to the rounding of float sums in another order.
+// Every k (16: two full groups), every stored precision of dense F, with skipped rows (reflectivity 0): the k-RHS
+// product over F's row blocks gives each right-hand side what the single product gives it, to the rounding of float
+// sums in another order.
 TEST(MultiProduct, EqualsSingleProducts) {
   const size_t n = 1237;  // not a multiple of the chunk, the group or the row alignment
   Scene s = make_scene(n, 5, 1, 7);
@@ -86,7 +87,8 @@ TEST(MultiProduct, EqualsSingleProducts) {
         X.emplace_back(n), Y.emplace_back(n), E.emplace_back(n);
         load(ex, X.back(), xh[q]), load(ex, E.back(), eh[q]);
       }
-      multi_affine_matvec<OpenMPExec, float>(ex, M.view(), rows, X, Y, rs, E, 0.5f, 0.9f, 1.0f);
+      const RowBlockMatrix B(M.view(), rows, 2);
+      multi_affine_matvec<OpenMPExec, float>(ex, B, X, Y, rs, E, 0.5f, 0.9f, 1.0f);
       for (size_t q = 0; q < k; ++q) {
         Aos<float> x(n), y(n), e(n), ra(n);
         load(ex, x, xh[q]), load(ex, e, eh[q]), load(ex, ra, rho);
