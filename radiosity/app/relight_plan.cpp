@@ -86,9 +86,13 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
   in.cam = parse_view(a.view, in.m);
   const double n2 = double(n) * double(n);
   // At most: the dense values, a 16-bit dense copy for the frames (a sparse copy holds fewer values) and a float32
-  // sparse one for the light basis (fewer than the dense values, and then no dense copy).
-  hpcgi::require_host_memory("relighting " + std::to_string(n) + " patches (dense float32 form factors and a "
-                             "copy in --storage)", 4 * n2 + (p.values != FFValues::float32 || p.storage != FFStorage::dense ? 4 * n2 : 0));
+  // sparse one for the light basis (fewer than the dense values, and then no dense copy); with two or more lights
+  // (or right-hand sides), F's row blocks while the basis is solved (row_blocks.hpp: at most the dense values).
+  const bool blocks = in.lights.size() > 1 || a.bench_rhs > 1;
+  hpcgi::require_host_memory("relighting " + std::to_string(n) + " patches (dense float32 form factors, a copy in "
+                             "--storage" + std::string(blocks ? " and their row blocks for the light basis)" : ")"),
+                             4 * n2 + (p.values != FFValues::float32 || p.storage != FFStorage::dense ? 4 * n2 : 0) +
+                                 (blocks ? 4 * n2 : 0));
   hpcgi::Timer t;
   in.ff = load_form_factors(a.ff, in.m);
   in.ff_load_s = t.seconds();

@@ -89,8 +89,10 @@ int run_web(const WebArgs& a) {
   const Mesh m = load_scene(a, &load_s);
   const size_t n = m.size();
   const std::vector<NamedEntity> lights = lights_of(named_entities(m));
-  hpcgi::require_host_memory("the light basis of " + std::to_string(n) + " patches (dense float32 form factors)",
-                             4.0 * double(n) * double(n));
+  // the dense values, and with two or more lights their row blocks while the basis is solved (at most as many)
+  hpcgi::require_host_memory("the light basis of " + std::to_string(n) + " patches (dense float32 form factors" +
+                                 std::string(lights.size() > 1 ? " and their row blocks)" : ")"),
+                             4.0 * double(n) * double(n) * (lights.size() > 1 ? 2 : 1));
   LightBasis basis;
   bool loaded = false;
   {
