@@ -96,15 +96,17 @@ def bench_table(preset):
         product_ms=("result.product_ms_median", "median"), single_ms=("result.single_product_ms_median", "median"),
         gbps=("result.bandwidth_GBps", "median"),
         alt=("result.over_k1_alternating", "median")).reset_index()
-    t.columns = ["storage", "ff_precision", "k", "product_ms", "single_product_ms", "F_GBps", "over_k1_alternating"]
+    t.columns = ["storage", "ff_precision", "k", "product_ms", "single_product_ms", "read_GBps", "over_k1_alternating"]
     t["k"] = t["k"].astype(int)
     t["per_rhs_ms"] = t["product_ms"] / t["k"]
     one = t[t["k"] == 1].set_index(["storage", "ff_precision"])["product_ms"]
     t["over_k1"] = [r.product_ms / one.get((r.storage, r.ff_precision), np.nan) for r in t.itertuples()]
-    notes = ["One pass over room3's F (in the storage of the row) for k right-hand sides of three channels each "
-             "(linalg.hpp's multi_affine_matvec; runs: multi_runs_kernels.hpp), "
-             "median of 10 timed products; single_product_ms: the solvers' one-right-hand-side product (affine_matvec) "
-             "on the same F beside it; over_k1: the k-product's time over the k = 1 case's (separate runs); "
+    notes = ["One pass over room3's F for k right-hand sides of three channels each, median of 10 timed products: "
+             "k = 1, the solvers' product (affine_matvec) over F in the storage of the row; k >= 2, linalg.hpp's "
+             "multi_affine_matvec over F's row blocks (row_blocks.hpp, built from that storage: the same blocks "
+             "whatever the storage; records from before commit 7bfc79c read the storage itself). read_GBps: the bytes "
+             "the product reads (F, or its row blocks) over its time; single_product_ms: the solvers' product on the "
+             "same F beside it; over_k1: the k-product's time over the k = 1 case's (separate runs); "
              "over_k1_alternating: over the k = 1 product timed in turns with it in the same run (the ratio that holds "
              "on a shared machine). The issue asks for <= 2.5 at k = 8."]
     text = write("bench_relight", preset, f"Product with k right-hand sides, room3 ({preset})", t, notes)
