@@ -2,8 +2,9 @@
 // any mix of the lights' intensities and colours is the same mix of one solution per light, channel by channel:
 //   E = Σ_l s_l c_l ⊙ E_l   =>   B = Σ_l s_l c_l ⊙ B_l,   A B_l = E_l  (A_c = I - diag(ρ_c) F),
 // E_l the scene's emission on light l's patches (0 elsewhere), s_l its intensity and c_l its colour. The k solves
-// run together, Jacobi in float64 with all k right-hand sides in one pass over F per step (linalg.hpp's
-// multi_affine_matvec), until every light's every channel has a relative residual <= tol. A frame is then
+// run together, Jacobi in float64 with all k right-hand sides in one pass over F's row blocks per step (linalg.hpp's
+// multi_affine_matvec; one light: the solvers' product over F as stored), until every light's every channel has a
+// relative residual <= tol. A frame is then
 // O(patches × lights), exact up to the basis' own residual.
 #pragma once
 #include <string>

@@ -154,7 +154,8 @@ def bench(preset, p):
     # Issue 20: the product with k right-hand sides (one pass over F), room2's basis frames (its form factors at
     # R = 64, made once by slurm/bench) and room3's wall 10% darker, warm-started.
     relight = f"bin/radiosity relight {room3} --ff {ff} --threads {t}"
-    # The product in runs (what --storage auto picks on room3) and in dense beside it, each storage named.
+    # The product over F in runs (what --storage auto picks on room3) and in dense beside it, each storage named: k = 1
+    # reads that storage, k >= 2 the row blocks built from it (the same blocks from either).
     e["bench-relight"] = ("Bench: relighting: the product with k = 1 .. 16 right-hand sides on room3 (runs and dense, "
                           "float32 and float16), room2's basis frames, room3's wall frames warm-started", None, [
         *(f"{relight} --bench-rhs {k} --ff-precision {v} --storage {st} --passes 10" for st in ("runs", "dense")

@@ -6,15 +6,16 @@
 // broadcast from memory into its fused multiply-add. No horizontal sums, no column indices (a segment's columns are
 // consecutive), F's bytes read once per block for every group (the later groups from L2).
 //
-// Measured on room3.xml's F (R = 256, build/ff/bench-room3.ff, 2 threads, this project's 2-core EPYC VM, a scratch
-// program timing this loop): k = 8 in float32 3.7-3.9 ms, float16 3.6-3.9 ms, against the one-right-hand-side runs
-// product's 2.3 and 1.8 ms; the block columns' 24 multiply-adds, not F's bytes, set the pace (1.67 M columns ×
-// 24 / 2 cores / 2 a cycle is 3.8 ms at 2.6 GHz). F's values are asked for 4 KiB ahead (kSparsePrefetchBytes):
-// 6.0 ms without, 4.3 ms at 2 KiB, 4.2 ms at 8 KiB.
+// Measured on room3.xml's F at R = 256 (9680 patches), 2 threads, this project's 2-core EPYC VM: `make bench`
+// (bench-relight, commit 573d0ed) k = 8 in 3.71 ms (float32) and 3.32 ms (float16), 1.33-1.53 and 1.41-1.82 times
+// the one-right-hand-side runs product timed in turns with it (README, "Sparse F for the relighting"). The
+// multiply-adds, not F's bytes, set the pace: a scratch program's blocks over all 9680 rows, 1.67 M columns × 24 /
+// 2 cores / 2 a cycle, are 3.8 ms at 2.6 GHz. In that program F's values asked for 4 KiB ahead (kSparsePrefetchBytes)
+// took k = 8 in float32 from 6.0 ms (no prefetch) to 3.7-3.9 ms; 2 KiB: 4.3-4.6 ms, 8 KiB: 4.2 ms.
 //
-// The sums run in another order than the one-right-hand-side products' (not their bits); a row's sums do not depend
-// on the thread that takes its block, so the bits are the same for any thread count. Builds without AVX-512 run the
-// same loop over arrays of 16 lanes (correct; as fast as the compiler makes it).
+// The sums may run in another order than the one-right-hand-side products' (not necessarily their bits); a row's
+// sums do not depend on the thread that takes its block, so the bits are the same for any thread count. Builds
+// without AVX-512 run the same loop over arrays of 16 lanes (correct; as fast as the compiler makes it).
 #pragma once
 #include <algorithm>
 #include <cstddef>

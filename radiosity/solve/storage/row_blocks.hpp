@@ -6,10 +6,11 @@
 // column a value that the per-value products pay (multi-right-hand-side kernels tried before: README, "Sparse F
 // for the relighting").
 //
-// What it costs: the zeros in a block's columns. On room3.xml at R = 256 (9680 patches, 17.5 M non-zeros) the
-// blocks hold 1.67 M columns of 16, 66% of them non-zero (8 rows: 75%, 4: 85%; measured on build/ff/bench-room3.ff),
-// 107 MB in float32 against runs' 80 MB. It is built from F in any storage, once, for as long as the right-hand
-// sides are many, beside the F the solvers read.
+// What it costs: the zeros in a block's columns. On room3.xml at R = 256 (9680 patches, 17.5 M non-zeros) blocks
+// over all rows hold 1.67 M columns of 16, 66% of their values non-zero (8 rows: 75%, 4: 85%; a count over
+// build/ff/bench-room3.ff), 107 MB in float32 against runs' 78 MB; without the rows of reflectivity 0, as relight
+// builds them, 95.7 MB, 67% (make bench's records). It is built from F in any storage, once, for as long as the
+// right-hand sides are many, beside the F the solvers read.
 #pragma once
 #include <cstddef>
 #include <cstdint>
