@@ -20,6 +20,17 @@ def run(args, env=None, timeout=300, **kw):
     return subprocess.run([str(a) for a in args], capture_output=True, text=True, timeout=timeout, env=full_env, **kw)
 
 
+def _rrv_scenes():
+    """The folder RRV's scenes are read from, as the programs' callers find it (radiosity/scenes/rrv/dir: RRV_SCENES,
+    make scenes' cache, ../shared/scenes/rrv), and whether it holds room2.xml, room3.xml and teapot.obj."""
+    p = run([ROOT / "radiosity" / "scenes" / "rrv" / "dir"])
+    return Path(p.stdout.strip()), p.returncode == 0
+
+
+RRV, HAVE_RRV = _rrv_scenes()
+RRV_ABSENT = f"RRV's scenes not found in {RRV}: run 'make scenes' or set RRV_SCENES"
+
+
 def poisson(*args, np=None, timeout=300):
     """Runs bin/poisson --json --quiet with args (under mpirun -np NP if np) and returns (process, record or None)."""
     cmd = [BIN / "poisson", "--json", "--quiet", *args]

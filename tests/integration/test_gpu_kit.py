@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT, gpu_absent_reason, run
+from conftest import HAVE_RRV, ROOT, RRV_ABSENT, gpu_absent_reason, run
 
 KIT = ROOT / "build" / "gpu-kit"
 CLEAN = {"PATH": "/usr/bin:/bin"}  # env -i PATH=/usr/bin:/bin
@@ -33,6 +33,8 @@ def clean_run(args, cwd, timeout=600):
 def kit():
     if shutil.which("nvcc") is None and not Path("/usr/local/cuda/bin/nvcc").exists():
         pytest.skip("no nvcc on this machine: make gpu-kit cannot build the kit")
+    if not HAVE_RRV:  # make gpu-kit packs RRV's scenes for the GPU node and refuses without them
+        pytest.skip(f"make gpu-kit cannot pack RRV's scenes: {RRV_ABSENT}")
     p = run(["make", "--no-print-directory", "gpu-kit"], cwd=ROOT, timeout=3600)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     return KIT
@@ -62,6 +64,16 @@ def paper_gpu_cases():
         lines = [l for l in f.read_text().splitlines() if l.strip() and not l.lstrip().startswith("#")]
         out += [(f.stem, k, l) for k, l in enumerate(lines) if GPU_CASE.search(l)]
     return out
+
+
+def test_without_rrv_scenes_make_gpu_kit_refuses_with_one_line_before_building(tmp_path):
+    if shutil.which("nvcc") is None and not Path("/usr/local/cuda/bin/nvcc").exists():
+        pytest.skip("no nvcc on this machine: make gpu-kit refuses for want of nvcc first")
+    p = run(["make", "--no-print-directory", "gpu-kit", f"RRV_SCENES={tmp_path}", f"KIT={tmp_path / 'kit'}"], cwd=ROOT)
+    assert p.returncode == 2
+    assert p.stderr.splitlines()[0] == (f"make gpu-kit: the kit carries RRV's scenes; {tmp_path} has no room2.xml: "
+                                        "run 'make scenes' or set RRV_SCENES=DIR")
+    assert p.stdout == "" and not (tmp_path / "kit").exists()
 
 
 def test_the_kit_is_at_most_60_mib_and_holds_what_the_node_needs(kit):

@@ -1,18 +1,16 @@
 """bin/radiosity end to end: physics of the closed box, RRV's rooms, solver agreement through the real program,
 snapshots and outputs, and bad input refused with exit status 2 and nothing written."""
 import json
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import BIN, ROOT, run
+from conftest import BIN, HAVE_RRV, ROOT, RRV, RRV_ABSENT, run
 
 SCENES = ROOT / "radiosity" / "scenes"
-RRV = Path(os.environ.get("RRV_SCENES", ROOT.parent / "shared" / "scenes" / "rrv"))
-requires_rrv = pytest.mark.skipif(not (RRV / "room3.xml").exists(), reason=f"RRV's scenes not found in {RRV} (set RRV_SCENES)")
+requires_rrv = pytest.mark.skipif(not HAVE_RRV, reason=RRV_ABSENT)
 
 
 def radiosity(*args, timeout=600):

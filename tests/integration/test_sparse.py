@@ -7,18 +7,13 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from conftest import BIN, ROOT, run
+from conftest import BIN, HAVE_RRV, ROOT, RRV, RRV_ABSENT, run
 
 SCENES = {
     "scene1": (ROOT / "radiosity" / "scenes" / "scene1.xml", []),
     "scene2": (ROOT / "radiosity" / "scenes" / "scene2.xml", []),
     "room3": (None, ["--allow-reflectivity-ge-1"]),
 }
-
-
-def rrv_dir():
-    p = run([ROOT / "radiosity" / "scenes" / "rrv" / "dir"])
-    return p.stdout.strip() if p.returncode == 0 else None
 
 
 @pytest.fixture(scope="module")
@@ -28,10 +23,9 @@ def form_factors(tmp_path_factory):
     out = {}
     for name, (scene, flags) in SCENES.items():
         if scene is None:
-            rrv = rrv_dir()
-            if rrv is None:
+            if not HAVE_RRV:
                 continue
-            scene = f"{rrv}/{name}.xml"
+            scene = RRV / f"{name}.xml"
         ff = d / f"{name}.ff"
         p = run([BIN / "radiosity", "formfactors", scene, *flags, "--hemicube", "32", "-o", ff, "--quiet"], timeout=600)
         assert p.returncode == 0, p.stderr
@@ -56,7 +50,7 @@ def max_rel_diff(B, R):
 @pytest.mark.parametrize("name", list(SCENES))
 def test_every_storage_gives_the_dense_float32_answer(tmp_path, form_factors, name):
     if name not in form_factors:
-        pytest.skip(f"RRV's scenes are not here ({name}.xml): run 'make scenes' or set RRV_SCENES")
+        pytest.skip(RRV_ABSENT)
     entry = form_factors[name]
     for backend, layout in (("serial", "aos"), ("openmp", "soa"), ("openmp", "aos")):
         if name == "room3" and backend == "serial":
@@ -84,7 +78,7 @@ def test_every_storage_gives_the_dense_float32_answer(tmp_path, form_factors, na
 
 def test_auto_is_the_default_and_says_what_it_picked(tmp_path, form_factors):
     if "room3" not in form_factors:
-        pytest.skip("RRV's scenes are not here (room3.xml): run 'make scenes' or set RRV_SCENES")
+        pytest.skip(RRV_ABSENT)
     rec, _, out = solve(tmp_path, form_factors["room3"], "--steps", "4", "--threads", "2")
     picked = rec["params"]["storage"]
     assert rec["params"]["storage_requested"] == "auto" and picked in ("runs", "compressed", "csr")
