@@ -252,9 +252,8 @@ KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)
                -gencode arch=compute_$(lastword $(CUDA_ARCHS)),code=compute_$(lastword $(CUDA_ARCHS))
 gpu-kit:
 	@$(if $(HAVE_CUDA),,echo "make gpu-kit: needs nvcc (CUDA 13) on PATH or NVCC=...; none found" >&2; exit 2)
-	@for f in room2.xml room3.xml teapot.obj COPYING; do test -f "$(RRV_SCENES)/$$f" || { \
-	  echo "make gpu-kit: the kit carries RRV's scenes; $(RRV_SCENES) has no $$f: run 'make scenes' or set RRV_SCENES=DIR" >&2; \
-	  exit 2; }; done
+	@RRV_SCENES="$(RRV_SCENES)" radiosity/scenes/rrv/dir >/dev/null || { echo "make gpu-kit: the kit carries RRV's \
+	scenes, and $(RRV_SCENES) lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
 	@$(MAKE) --no-print-directory -f Makefile -f gpukit/link.mk BUILD=$(KIT_BUILD) BIN=$(KIT_BUILD)/bin \
 	  MPICXX=no-mpi-in-the-kit OPT="$(KIT_OPT)" NVCCFLAGS="-O3 -std=c++17 $(KIT_GENCODE) -Xcompiler -fopenmp" \
 	  $(KIT_BUILD)/bin/poisson $(KIT_BUILD)/bin/radiosity $(KIT_BUILD)/bin/stream $(KIT_BUILD)/tests/solve_tests

@@ -71,8 +71,8 @@ def test_without_rrv_scenes_make_gpu_kit_refuses_with_one_line_before_building(t
         pytest.skip("no nvcc on this machine: make gpu-kit refuses for want of nvcc first")
     p = run(["make", "--no-print-directory", "gpu-kit", f"RRV_SCENES={tmp_path}", f"KIT={tmp_path / 'kit'}"], cwd=ROOT)
     assert p.returncode == 2
-    assert p.stderr.splitlines()[0] == (f"make gpu-kit: the kit carries RRV's scenes; {tmp_path} has no room2.xml: "
-                                        "run 'make scenes' or set RRV_SCENES=DIR")
+    assert p.stderr.splitlines()[0] == (f"make gpu-kit: the kit carries RRV's scenes, and {tmp_path} lacks room2.xml, "
+                                        "room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR")
     assert p.stdout == "" and not (tmp_path / "kit").exists()
 
 
