@@ -85,7 +85,7 @@ EXPERIMENTS ?= $(REPORT_EXPERIMENTS) $(if $(filter 1,$(LONG)),$(LONG_EXPERIMENTS
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
 MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
-.PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench scenes gpu-kit gpu-import FORCE
+.PHONY: all test unit fuzz deps clean help reproduce regenerate-reference resume plots report audit bench scenes gpu-kit gpu-import FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
 	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
@@ -97,6 +97,7 @@ help:
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
 	@echo "make reproduce  run the study at PRESET=$(PRESET) on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
 	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
+	@echo "make regenerate-reference MACHINE=<results/REFERENCE>   the reference machine's records made afresh on this machine"
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
 	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/<machine>/tables/bench_PRESET.md"
@@ -110,11 +111,18 @@ help:
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
 
-# Provenance baked into the binaries; rewritten only when its content changes, so nothing rebuilds needlessly.
+# Provenance baked into the binaries; rewritten only when its content changes, so nothing rebuilds needlessly. A
+# tree is dirty when a tracked file differs from HEAD or an untracked one is not ignored; the study's outputs
+# (results/, report/) do not count, since the runs themselves write them (a second make reproduce would otherwise mark
+# every record dirty). Outside git (no HEAD) the tree counts as dirty.
+GIT_CHANGES = $(shell git rev-parse -q --verify HEAD >/dev/null 2>&1 || echo no-head; \
+                git status --porcelain -- . ':(exclude)results' ':(exclude)report' 2>/dev/null | head -1)
+DIRTY_NOTE = $(if $(GIT_CHANGES),echo "$@: the tree has uncommitted changes (git status): its records are marked \
+  git_dirty and the tables leave them out; commit first to make results" >&2,true)
 $(BUILD)/gen/build_info.inc: FORCE
 	@mkdir -p $(@D)
 	@{ echo '#define HPCGI_GIT_COMMIT "$(shell git rev-parse HEAD 2>/dev/null || echo unknown)"'; \
-	   echo '#define HPCGI_GIT_DIRTY $(shell git diff --quiet HEAD -- 2>/dev/null && echo 0 || echo 1)'; \
+	   echo '#define HPCGI_GIT_DIRTY $(if $(GIT_CHANGES),1,0)'; \
 	   echo '#define HPCGI_CXX_VERSION "$(shell $(LINK) --version 2>/dev/null | head -1 | sed 's/"/\\"/g')"'; \
 	   echo '#define HPCGI_CXXFLAGS "$(CXXFLAGS) $(DEFS)"'; \
 	   echo '#define HPCGI_NVCC_VERSION "$(if $(HAVE_CUDA),$(shell $(NVCC) --version | tail -1),none)"'; } > $@.tmp
@@ -191,8 +199,13 @@ test:
 # tables, plots and report) or submitted as job arrays (RUNNER=slurm: slurm/submit, make plots chained after).
 # Locally it ends with the runner's summary (cases run, skipped and why, failed) and exits non-zero only if a case
 # failed; a case skipped for want of a GPU or of RRV's scenes is no failure.
+# Before anything else: this machine's label, and whether it may add records to that folder (another machine's, the
+# reference's committed folder above all, is refused with one line: common/machine_label.py).
+CHECK_LABEL = label=$$(python3 common/machine_label.py --check "$${RESULTS:-results}" 2>&1) || \
+  { echo "$@: $${label\#machine_label: }" >&2; exit 2; }
 reproduce:
-	@echo "reproduce: machine $$(python3 common/machine_label.py) (records in results/<machine>/), preset $(PRESET), runner $(RUNNER)"
+	@$(CHECK_LABEL); echo "reproduce: machine $$label (records in results/$$label/), preset $(PRESET), runner $(RUNNER)"
+	@$(DIRTY_NOTE)
 	@common/deps.sh --check || common/deps.sh
 	@$(MAKE) --no-print-directory -j$$(nproc) all
 ifeq ($(RUNNER),slurm)
@@ -203,6 +216,11 @@ else
 	$(MAKE) --no-print-directory report PRESET=$(PRESET) || status=1; \
 	echo; cat $(BUILD)/reproduce-summary.txt 2>/dev/null; exit $$status
 endif
+
+# The reference machine's folder changes only here, by name (slurm/regenerate-reference: from a clean tree; where the
+# folder is not yet this machine's, its old records leave the live files in a commit of their own first).
+regenerate-reference:
+	slurm/regenerate-reference "$$MACHINE"
 
 # Only what is missing or failed: locally the runner skips recorded cases anyway; on Slurm the missing indices.
 resume:
@@ -216,6 +234,8 @@ endif
 # The bandwidth limit, our solvers per iteration and their peers on this machine, one table of ratios
 # (slurm/bench: the bench-* case lists of PRESET through the local runner; README, section Performance).
 bench:
+	@$(CHECK_LABEL)
+	@$(DIRTY_NOTE)
 	@common/deps.sh --check || common/deps.sh
 	@$(MAKE) --no-print-directory all
 	PRESET=$(PRESET) BENCH="$(BENCH)" slurm/bench

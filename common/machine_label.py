@@ -5,9 +5,20 @@
     common/machine_label.py --json     prints this machine's description (label, host, CPU, cores, GPU)
 
 The label is made of what the records' provenance says of a machine: the short host name, the CPU model, the number
-of online CPUs and, where one is present, the GPU model, e.g. `vm-amd-epyc-2c` or `gpu01-intel-xeon-16c-nvidia-h200`.
-The same function derives it from a record (`from_record`), so a machine's records and the machine itself agree.
-`MACHINE=name` overrides it (a cluster's name, say: `MACHINE=maya-like`); it must be a plain folder name.
+of online CPUs, where one is present the GPU model, and the first 6 hex digits of the machine's own random id, e.g.
+`vm-amd-epyc-2c-3fa9c1` or `gpu01-intel-xeon-16c-nvidia-h200-07b2e4`. The id is what tells two machines apart when
+everything readable from the hardware agrees: VMs cloned from one image share host name, CPU, core count and even
+/etc/machine-id. It is made once per machine (uuid4) and kept outside the work tree, in
+$HPCGI_STATE_DIR, else $XDG_STATE_HOME/hpcgi, else ~/.local/state/hpcgi (file `machine-id`), so every clone on one
+machine shares it and no clone on another machine can; $HPCGI_MACHINE_ID gives it outright (a cluster whose nodes
+share no home). The same function derives a label from a record (`from_record`: its provenance and the id the runner
+put in its environment), so a machine's records and the machine itself agree.
+`MACHINE=name` overrides the label (a cluster's name, say: `MACHINE=maya-like`); it must be a plain folder name.
+
+A machine folder belongs to one machine: its machine.json holds that machine's id. `owner_problem` says why this
+machine may not add records to a folder (another machine's, or one whose owner is unknown), and `claim` writes
+machine.json into a new folder. Records are never pooled across machines: the reference machine's committed folder
+changes only through `make regenerate-reference`, which names it (slurm/regenerate-reference).
 Standard library only: it runs on a bare GPU node without the project's virtual environment."""
 import json
 import os
@@ -16,6 +27,8 @@ import shutil
 import socket
 import subprocess
 import sys
+import uuid
+from pathlib import Path
 
 # Names in results/ that are not machines.
 RESERVED = {"paper", "tables", "plots", "report"}
@@ -31,11 +44,55 @@ def slug(text, limit=40):
     return s[:limit].strip("-")
 
 
-def make(host, cpu_model, cpus, gpu=None):
+def make(host, cpu_model, cpus, gpu=None, machine_id=None):
     parts = [slug(str(host).split(".")[0], 24), slug(cpu_model), f"{int(cpus)}c"]
     if gpu:
         parts.append(slug(gpu, 24))
+    if machine_id:
+        parts.append(str(machine_id)[:6])
     return "-".join(p for p in parts if p)
+
+
+_ID = re.compile(r"^[0-9a-f]{12,64}$")
+
+
+class NoIdentity(ValueError):
+    """This machine's id can be neither read nor made (a state folder that cannot be written, a damaged id file)."""
+
+
+def id_file():
+    base = os.environ.get("HPCGI_STATE_DIR") or os.path.join(
+        os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state"), "hpcgi")
+    return Path(base) / "machine-id"
+
+
+def machine_id():
+    """This machine's random id: $HPCGI_MACHINE_ID, else the id file, made on first use (by a link, so two first
+    uses at once agree on one id)."""
+    given = os.environ.get("HPCGI_MACHINE_ID", "").strip().lower()
+    if given:
+        if not _ID.match(given):
+            raise NoIdentity(f"HPCGI_MACHINE_ID={given!r} is not 12-64 hex digits")
+        return given
+    f = id_file()
+    try:
+        if not f.exists():
+            f.parent.mkdir(parents=True, exist_ok=True)
+            tmp = f.with_name(f"machine-id.{os.getpid()}.tmp")
+            tmp.write_text(uuid.uuid4().hex + "\n")
+            try:
+                os.link(tmp, f)
+            except FileExistsError:
+                pass
+            finally:
+                tmp.unlink()
+        mid = f.read_text().strip().lower()
+    except OSError as e:
+        raise NoIdentity(f"cannot keep this machine's id in {f} ({e.strerror}): set HPCGI_STATE_DIR=DIR "
+                         f"(a folder of this machine's) or HPCGI_MACHINE_ID") from e
+    if not _ID.match(mid):
+        raise NoIdentity(f"{f} holds no machine id (12-64 hex digits): remove it and run again")
+    return mid
 
 
 def check(label):
@@ -74,8 +131,9 @@ def gpu_model():
 def describe():
     """This machine: its label (MACHINE when set) and what the label is made of."""
     host = socket.gethostname()
-    d = {"host": host, "cpu_model": cpu_model(), "cpus_online": os.sysconf("SC_NPROCESSORS_ONLN"), "gpu": gpu_model()}
-    d["derived_label"] = make(d["host"], d["cpu_model"], d["cpus_online"], d["gpu"])
+    d = {"host": host, "cpu_model": cpu_model(), "cpus_online": os.sysconf("SC_NPROCESSORS_ONLN"), "gpu": gpu_model(),
+         "machine_id": machine_id()}
+    d["derived_label"] = make(d["host"], d["cpu_model"], d["cpus_online"], d["gpu"], d["machine_id"])
     given = os.environ.get("MACHINE", "").strip()
     d["label"] = check(given) if given else d["derived_label"]
     return d
@@ -89,16 +147,97 @@ def from_record(rec):
     """The label a record's provenance derives (the label its machine had, unless it ran under MACHINE=...)."""
     p = rec.get("provenance", {})
     gpu = (rec.get("backend_info") or {}).get("gpu")
-    return make(p.get("host", "unknown"), p.get("cpu_model", "unknown"), p.get("cpus_online", 0), gpu)
+    return make(p.get("host", "unknown"), p.get("cpu_model", "unknown"), p.get("cpus_online", 0), gpu,
+                (p.get("env") or {}).get("HPCGI_MACHINE_ID"))
+
+
+def read_owner(folder):
+    """The machine.json of a machine folder as a dict, {} where there is none; ValueError where it is damaged."""
+    f = Path(folder) / "machine.json"
+    if not f.exists():
+        return {}
+    try:
+        d = json.loads(f.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise ValueError(f"{f} is unreadable ({e})") from e
+    if not isinstance(d, dict):
+        raise ValueError(f"{f} is no JSON object")
+    return d
+
+
+def owner_problem(folder, mid):
+    """Why the machine of id `mid` may not add records to `folder`, in one sentence; None where it may (the folder
+    is its own, or new: no machine.json and no records)."""
+    folder = Path(folder)
+    try:
+        d = read_owner(folder)
+    except ValueError as e:
+        return str(e)
+    if d.get("machine_id") == mid:
+        return None
+    if d.get("machine_id"):
+        return (f"{folder} belongs to another machine (id {str(d['machine_id'])[:6]}, host {d.get('host', '?')!r}; "
+                f"this machine's id is {mid[:6]})")
+    if d or (folder.is_dir() and any(folder.glob("*/*.jsonl"))):
+        return f"{folder} holds records of a machine whose id is not known (no machine_id in its machine.json)"
+    return None
+
+
+def claim(folder, label):
+    """Writes machine.json (this machine, under `label`) into a folder that has none; atomic."""
+    folder = Path(folder)
+    if (folder / "machine.json").exists():
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    d = describe()
+    d["label"] = label
+    tmp = folder / f".machine.json.{os.getpid()}"
+    tmp.write_text(json.dumps(d, sort_keys=True) + "\n")
+    os.replace(tmp, folder / "machine.json")
+
+
+WAY_OUT = ("leave MACHINE unset (this machine's own folder) or name a new folder with MACHINE=<name>; the "
+           "reference machine's folder changes only by 'make regenerate-reference'")
+
+
+def checked_label(results, write=False):
+    """This machine's label after checking that it may add records to results/<label>/ (write=True: and claiming it
+    when new); ValueError with one sentence and the way out where it may not."""
+    label = this_machine()
+    why = owner_problem(Path(results) / label, machine_id())
+    if why:
+        raise ValueError(f"{why}: {WAY_OUT}")
+    if write:
+        claim(Path(results) / label, label)
+    return label
+
+
+USAGE = """usage: common/machine_label.py [--json | --id | --check RESULTS | --claim RESULTS]
+  (none)            this machine's label ($MACHINE when set)
+  --json            this machine's description: label, host, CPU, cores, GPU, machine_id
+  --id              this machine's random id
+  --check RESULTS   the label, after checking that this machine may add records to RESULTS/<label>/ (exit 2 if not)
+  --claim RESULTS   as --check, and writes RESULTS/<label>/machine.json where the folder is new"""
 
 
 def main(argv):
+    if argv and argv[0] in ("-h", "--help"):
+        print(USAGE)
+        return 0
+    known = {"--json": 1, "--id": 1, "--check": 2, "--claim": 2}
+    if argv and (argv[0] not in known or len(argv) != known[argv[0]]) or len(argv) > 2:
+        print(USAGE, file=sys.stderr)
+        return 2
     try:
+        if argv and argv[0] in ("--check", "--claim"):
+            print(checked_label(argv[1], write=argv[0] == "--claim"))
+            return 0
         d = describe()
     except ValueError as e:
         print(f"machine_label: {e}", file=sys.stderr)
         return 2
-    print(json.dumps(d, sort_keys=True) if "--json" in argv else d["label"])
+    print(json.dumps(d, sort_keys=True) if argv[:1] == ["--json"] else d["machine_id"] if argv[:1] == ["--id"]
+          else d["label"])
     return 0
 
 

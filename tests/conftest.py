@@ -3,12 +3,17 @@ import json
 import os
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 BIN = ROOT / "bin"
+
+# The tests' machine: an id of its own for the whole session (common/machine_label.py keeps a machine's id in
+# HPCGI_STATE_DIR), so that no test reads or makes the id of the machine it runs on.
+os.environ.setdefault("HPCGI_STATE_DIR", tempfile.mkdtemp(prefix="hpcgi-test-machine-"))
 
 # OpenMPI refuses to run as root unless told; CI runs as root.
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1", "OMPI_MCA_rmaps_base_oversubscribe": "1"}

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Runs one timed run of a case and writes the machine's state beside its record (the timing protocol,
+common/timing_protocol.py): slurm/run-case calls it for every repeat of a timed case.
+
+    common/timed_run.py --state FILE --case CASE --repeat R [--probe "CMD"] -- PROGRAM ARGS...
+
+It runs PROGRAM with its arguments, its standard streams and its exit status passed through (a program killed by a
+signal gives 128 + the signal, as a shell reports it), and appends one JSON line to FILE:
+  {"case", "repeat", "utc", "wall_s", "load_before", "load_after", "others_cpu", "steal",
+   "probe_before_gbs", "probe_after_gbs", "disturbed", "reason"}
+- others_cpu: the share of the machine's CPU time used by anything but this run while it ran (/proc/stat's busy
+  time less the run's own, from wait4), steal: the share stolen by the hypervisor;
+- probe_*: a short memory-bandwidth probe (--probe, bin/stream's triad in GB/s) just before and just after;
+- disturbed: others_cpu above 10% of the machine, steal above 5%, or a probe below 80% of the baseline probe of this
+  session ($HPCGI_PROBE_BASELINE_GBS, measured by slurm/run-local before its first timed case). The 1-minute load
+  average is written beside them but decides nothing: it lags by a minute and counts this study's own runs.
+A disturbed run stays in the records; the tables leave it out of their medians and count it.
+Standard library only. A signal ignored at start stays ignored (the child inherits it)."""
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+OTHERS_MAX = 0.10
+STEAL_MAX = 0.05
+PROBE_MIN = 0.80
+TICK = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_ticks():
+    """(busy ticks of all CPUs but idle and iowait, steal ticks), from /proc/stat's first line."""
+    try:
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:9]]
+    except (OSError, ValueError):
+        return None
+    user, nice, system, _idle, _iowait, irq, softirq, steal = (v + [0] * 8)[:8]
+    return user + nice + system + irq + softirq + steal, steal
+
+
+def load1():
+    try:
+        with open("/proc/loadavg") as f:
+            return float(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def probe(cmd):
+    """The probe's triad bandwidth in GB/s, or None where there is no probe or it said nothing readable."""
+    if not cmd:
+        return None
+    try:
+        out = subprocess.run(cmd, shell=False, capture_output=True, text=True, timeout=30).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    m = re.search(r"triad\D*?([0-9.]+)\s*GB/s", out, re.I)
+    return float(m.group(1)) if m else None
+
+
+def judge(others, steal, pb, pa, baseline):
+    reasons = []
+    if others is not None and others > OTHERS_MAX:
+        reasons.append(f"other processes used {100 * others:.0f}% of the CPUs")
+    if steal is not None and steal > STEAL_MAX:
+        reasons.append(f"the hypervisor stole {100 * steal:.0f}% of the CPU time")
+    if baseline:
+        low = [p for p in (pb, pa) if p is not None and p < PROBE_MIN * baseline]
+        if low:
+            reasons.append(f"memory bandwidth probe {min(low):.1f} GB/s < {PROBE_MIN:.0%} of {baseline:.1f} GB/s")
+    return bool(reasons), "; ".join(reasons) or None
+
+
+def run(cmd):
+    """Runs cmd; (exit status as a shell reports it, wall seconds, the child's CPU seconds)."""
+    t0 = time.monotonic()
+    try:
+        child = subprocess.Popen(cmd)
+    except OSError as e:
+        print(f"timed_run: cannot run {cmd[0]}: {e.strerror}", file=sys.stderr)
+        return 127, 0.0, 0.0
+    while True:
+        try:
+            _, status, usage = os.wait4(child.pid, 0)
+            break
+        except KeyboardInterrupt:  # SIGINT reached us too (it was not ignored): the child decides what it does
+            continue
+    wall = time.monotonic() - t0
+    code = 128 + os.WTERMSIG(status) if os.WIFSIGNALED(status) else os.WEXITSTATUS(status)
+    return code, wall, usage.ru_utime + usage.ru_stime
+
+
+def parse(argv):
+    if "--" not in argv:
+        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] -- PROGRAM ARGS...")
+    k = argv.index("--")
+    opts, cmd = argv[:k], argv[k + 1:]
+    d = dict(zip(opts[::2], opts[1::2]))
+    if len(opts) % 2 or not cmd or not {"--state", "--case", "--repeat"} <= d.keys() or not d["--repeat"].isdigit():
+        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] -- PROGRAM ARGS...")
+    return d, cmd
+
+
+def main(argv):
+    if argv[:1] in (["-h"], ["--help"]):
+        print(__doc__)
+        return 0
+    try:
+        d, cmd = parse(argv)
+    except ValueError as e:
+        print(f"timed_run: {e}", file=sys.stderr)
+        return 2
+    probe_cmd = d.get("--probe", "").split()
+    try:
+        baseline = float(os.environ.get("HPCGI_PROBE_BASELINE_GBS") or 0) or None
+    except ValueError:
+        baseline = None
+    la, pb = load1(), probe(probe_cmd)
+    t0 = cpu_ticks()
+    code, wall, own_cpu = run(cmd)
+    t1 = cpu_ticks()
+    pa, lb = probe(probe_cmd), load1()
+    others = steal = None
+    if t0 and t1 and wall > 0:
+        capacity = wall * (os.sysconf("SC_NPROCESSORS_ONLN") or 1)
+        # /proc/stat counts in ticks: one tick of slack either way, so that a short run is not flagged by rounding
+        others = max(0.0, ((t1[0] - t0[0] - 2) / TICK - own_cpu) / capacity)
+        steal = max(0.0, (t1[1] - t0[1] - 1) / TICK / capacity)
+    disturbed, reason = judge(others, steal, pb, pa, baseline)
+    line = {"case": d["--case"], "repeat": int(d["--repeat"]), "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "wall_s": round(wall, 6), "exit_status": code, "load_before": la, "load_after": lb,
+            "others_cpu": None if others is None else round(others, 4),
+            "steal": None if steal is None else round(steal, 4), "probe_before_gbs": pb, "probe_after_gbs": pa,
+            "probe_baseline_gbs": baseline, "disturbed": disturbed, "reason": reason}
+    fd = os.open(d["--state"], os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, (json.dumps(line, sort_keys=True) + "\n").encode())
+    finally:
+        os.close(fd)
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""The timing protocol's one definition of a group's spread and of when a timed case has run enough (Hoefler and
+Belli, SC15: a non-parametric interval of the median, repeated until it is tight, disturbed runs kept out).
+
+A timed case (a case list whose "# repeat: N" is above 1, or that has none) runs in rounds with the other cases of
+its experiment (slurm/run-local): every case's repeat r before any case's repeat r + 1, so that a change of load
+falls on all of them alike. After round N (the list's repeat count, the least a group holds), a case stops as soon as
+the 95% bootstrap interval of its median lies within +-5% of the median, counting only its answers (exit status 0)
+that were not disturbed (common/timed_run.py: the machine's state beside each run); else it goes on to the cap
+(REPEAT_CAP, default 2N + 1). Its state file then gets one line saying which of the two happened.
+
+    common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP
+        prints "continue", "interval", "cap" or "no-answer"; on all but "continue" appends the group's line
+        {"case", "stop", "n", "median_s", "ci_s"} to STATE.
+
+analysis/records.py takes median_ci from here, so the runner's stopping rule and the tables' intervals agree.
+Standard library only: it runs where the project's virtual environment is not."""
+import json
+import os
+import random
+import sys
+
+LEVEL = 0.95
+TARGET = 0.05  # the interval's half-width, relative to the median
+RESAMPLES = 2000
+SEED = 12345
+# The time that a case's group is judged on: the first of these in a record's times_s.
+TIMED = ("solve", "hemicube", "total")
+
+
+def median(values):
+    v = sorted(values)
+    n = len(v)
+    return float("nan") if n == 0 else v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
+
+
+def median_ci(values, level=LEVEL, resamples=RESAMPLES):
+    """The bootstrap interval of the median (a fixed seed: the same values give the same interval)."""
+    v = [float(x) for x in values]
+    if not v:
+        return float("nan"), float("nan")
+    rng = random.Random(SEED)
+    meds = sorted(median(rng.choices(v, k=len(v))) for _ in range(resamples))
+    lo = meds[int((1 - level) / 2 * (resamples - 1))]
+    hi = meds[int(round((1 + level) / 2 * (resamples - 1)))]
+    return lo, hi
+
+
+def interval_met(values, target=TARGET):
+    """Whether the interval of the median lies within +-target of the median."""
+    if len(values) < 2:
+        return False
+    m = median(values)
+    lo, hi = median_ci(values)
+    return m > 0 and (m - lo) <= target * m and (hi - m) <= target * m
+
+
+def timed_value(rec):
+    t = rec.get("times_s") or {}
+    for k in TIMED:
+        if isinstance(t.get(k), (int, float)):
+            return float(t[k])
+    return None
+
+
+def read_lines(path):
+    if not os.path.exists(path):
+        return []
+    out = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for line in f:
+            try:
+                d = json.loads(line)
+            except ValueError:
+                continue
+            if isinstance(d, dict):
+                out.append(d)
+    return out
+
+
+def group(records_path, state_path, case):
+    """(times of the case's answers that were not disturbed, whether any run was no answer)."""
+    disturbed = {int(s["repeat"]) for s in read_lines(state_path)
+                 if s.get("case") == case and s.get("disturbed") and isinstance(s.get("repeat"), int)}
+    times, no_answer = [], False
+    for r in read_lines(records_path):
+        env = (r.get("provenance") or {}).get("env") or {}
+        if env.get("HPCGI_CASE") != case:
+            continue
+        if (r.get("result") or {}).get("exit_status", 0) != 0:
+            no_answer = True
+            continue
+        t = timed_value(r)
+        if t is not None and str(env.get("HPCGI_REPEAT", "")).isdigit() and int(env["HPCGI_REPEAT"]) not in disturbed:
+            times.append(t)
+    return times, no_answer
+
+
+def decide(records_path, state_path, case, rnd, least, cap):
+    times, no_answer = group(records_path, state_path, case)
+    if no_answer:
+        stop = "no-answer"
+    elif rnd >= least and len(times) >= least and interval_met(times):
+        stop = "interval"
+    elif rnd >= cap:
+        stop = "cap"
+    else:
+        return "continue"
+    lo, hi = median_ci(times) if times else (None, None)
+    line = json.dumps({"case": case, "stop": stop, "n": len(times), "median_s": median(times) if times else None,
+                       "ci_s": [lo, hi] if times else None}, sort_keys=True)
+    fd = os.open(state_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    try:
+        os.write(fd, (line + "\n").encode())
+    finally:
+        os.close(fd)
+    return stop
+
+
+def main(argv):
+    if len(argv) != 7 or argv[0] != "decide":
+        print(__doc__.split("\n\n")[2] if argv[:1] in (["-h"], ["--help"]) else
+              "usage: common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP",
+              file=sys.stdout if argv[:1] in (["-h"], ["--help"]) else sys.stderr)
+        return 0 if argv[:1] in (["-h"], ["--help"]) else 2
+    _, records, state, case, rnd, least, cap = argv
+    try:
+        rnd, least, cap = int(rnd), int(least), int(cap)
+    except ValueError:
+        print("timing_protocol: ROUND, MIN and CAP must be integers", file=sys.stderr)
+        return 2
+    print(decide(records, state, case, rnd, least, cap))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
