@@ -2,9 +2,11 @@
 machine folder belongs to the machine named in its machine.json, and nothing but `make regenerate-reference` writes
 into another machine's folder (the reference's committed one above all)."""
 import json
+import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from conftest import ROOT, run
@@ -78,8 +80,13 @@ def test_a_newcomer_on_the_reference_hardware_writes_a_folder_of_its_own(tmp_pat
     its own, its records in its own folder, the reference's results/ and report/ untouched."""
     clone = tmp_path / "clone"
     subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
-    for d in ("build", "bin"):  # this build, copied after the checkout so that make finds it up to date
-        shutil.copytree(ROOT / d, clone / d, symlinks=True, ignore=shutil.ignore_patterns("ff", "gpu-kit*"))
+    # this build, copied after the checkout and given one time, so that make finds every target up to date
+    now = time.time()
+    for d in ("build", "bin"):
+        shutil.copytree(ROOT / d, clone / d, symlinks=True, copy_function=shutil.copy,
+                        ignore=shutil.ignore_patterns("ff", "gpu-kit*", "*.tmp"))
+        for f in (clone / d).rglob("*"):
+            os.utime(f, (now, now), follow_symlinks=False)
     (clone / ".venv").symlink_to(ROOT / ".venv")
     env = {**machine(tmp_path, "newcomer"), "PRESET": "ci", "REPEAT": "1", "FF_DIR": str(tmp_path / "ff")}
     env.pop("MACHINE")
