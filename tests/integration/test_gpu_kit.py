@@ -6,6 +6,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tarfile
@@ -249,12 +250,14 @@ def kit_modules():
     return driver, summary
 
 
-def kit_driver(kit, out, monkeypatch, budget, gpu=True):
-    """gpu-kit/run's driver in this process on the built kit, its GPU probe answered 'present' when `gpu`."""
+def kit_driver(kit, out, monkeypatch, budget, sanitizer=False):
+    """gpu-kit/run's driver in this process on the built kit, its GPU probe answered 'present'; this machine's
+    compute-sanitizer (slow to refuse a machine without a GPU) left out unless `sanitizer`."""
     driver, _ = kit_modules()
-    from gpukit import node
-    if gpu:
-        monkeypatch.setattr(node, "probe_gpu", lambda env, kit: (None, None))
+    from gpukit import node, probe
+    monkeypatch.setattr(node, "probe_gpu", lambda env, kit: (None, None))
+    if not sanitizer:
+        monkeypatch.setattr(probe, "sanitizer", lambda *args: (False, "not looked for by this test"))
     monkeypatch.setattr(driver, "KIT", kit)
     d = driver.Driver(driver.argparse.Namespace(out=str(out), budget=budget, dry_run=False, json=False))
     d.label = "test-fake-gpu-node"
@@ -491,7 +494,7 @@ def test_a_sanitizer_that_refuses_the_device_skips_its_steps_with_the_reason_and
     (tools / "compute-sanitizer").write_text(FAKE_SANITIZER)
     (tools / "compute-sanitizer").chmod(0o755)
     monkeypatch.setenv("PATH", f"{tools}:/usr/bin:/bin")
-    driver, d = kit_driver(kit, tmp_path / "out", monkeypatch, 300.0)
+    driver, d = kit_driver(kit, tmp_path / "out", monkeypatch, 300.0, sanitizer=True)
     steps = d.plan()
     san = [s for s in steps if s.group == "sanitizer"]
     assert len(san) >= 20 and all(s.commands[0].argv[0] == str(tools / "compute-sanitizer") for s in san)
@@ -535,6 +538,14 @@ def test_when_a_case_is_killed_a_record_garbled_and_the_driver_dies_the_summary_
     assert {"summary.md", "logs/driver-traceback.txt", "logs/progress.log"} <= names, names
     assert records == "", records  # the garbled line set aside: the archive's records import
     assert '"schema": "hpcgi-rec' in garbled
+    # told to stop (the call's end): SIGTERM mid-step, and the summary and the archive are still written
+    driver, d = kit_driver(kit, tmp_path / "out", monkeypatch, 300.0)  # the same folder: scene 1's F is made
+    term = lambda _rec: os.kill(os.getpid(), signal.SIGTERM)
+    assert driver.run(d, [d.plan()[0], Step("stopped here", "table41", 1, [
+        Cmd(["sh", "-c", "echo '{}'"], None, None, term, True)])]) == 1
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert "The driver stopped before its end: Stopped: told to stop by SIGTERM" in text, text
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the driver's handler is gone again
 
 
 def test_running_late_drops_the_last_steps_by_name(tmp_path, monkeypatch):
