@@ -6,7 +6,7 @@ import json
 import os
 import shutil
 import subprocess
-from pathlib import Path
+import sys
 
 from gpukit import libs
 from gpukit.checks import sanitizer_refusal
@@ -46,7 +46,7 @@ def cuda_version(v):
 def driver(env, cwd):
     """(found: bool, one line): libcuda.so.1 as the programs' environment finds it."""
     try:
-        p = subprocess.run(["python3", "-c", DRIVER_PROBE], env=env, cwd=cwd, capture_output=True, text=True,
+        p = subprocess.run([sys.executable, "-B", "-c", DRIVER_PROBE], env=env, cwd=cwd, capture_output=True, text=True,
                            timeout=60)
         d = json.loads(p.stdout.strip().splitlines()[-1])
     except subprocess.TimeoutExpired:
