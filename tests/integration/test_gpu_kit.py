@@ -251,8 +251,9 @@ def kit_modules():
 
 
 def kit_driver(kit, out, monkeypatch, budget, sanitizer=False):
-    """gpu-kit/run's driver in this process on the built kit, its GPU probe answered 'present'; this machine's
-    compute-sanitizer (slow to refuse a machine without a GPU) left out unless `sanitizer`."""
+    """gpu-kit/run's driver in this process on the built kit, its GPU probe answered 'present'; the sanitizer's
+    probe answered 'not usable' unless `sanitizer` (so that a test does not depend on whether this machine has
+    compute-sanitizer installed)."""
     driver, _ = kit_modules()
     from gpukit import node, probe
     monkeypatch.setattr(node, "probe_gpu", lambda env, kit: (None, None))
