@@ -97,12 +97,14 @@ class Driver:
     def records(self, experiment):
         return self.out / "results" / self.label / experiment / f"{PRESET}.jsonl"
 
-    def child_env(self, extra_dirs=()):
-        """The node's environment, added to: the kit's lib/ first on LD_LIBRARY_PATH, then the node's own folders
-        (where its libcuda.so.1 may be), then `extra_dirs` (CUDA libraries found outside the loader's search)."""
+    def child_env(self, extra_dirs=(), first_dirs=()):
+        """The node's environment, added to: on LD_LIBRARY_PATH the kit's lib/, then `first_dirs` (the kit's
+        stand-ins for a library the node lacks), then the node's own folders (where its libcuda.so.1 may be), then
+        `extra_dirs` (CUDA libraries found outside the loader's search)."""
         env = {k: v for k, v in os.environ.items() if not k.startswith("HPCGI_")}
         node = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(os.pathsep) if d]
-        env["LD_LIBRARY_PATH"] = os.pathsep.join([str(KIT / "lib")] + node + [d for d in extra_dirs if d not in node])
+        env["LD_LIBRARY_PATH"] = os.pathsep.join([str(KIT / "lib"), *first_dirs] + node +
+                                                 [d for d in extra_dirs if d not in node])
         env["TMPDIR"] = str(self.out / "tmp")  # nothing is written outside the output folder
         env["PYTHONDONTWRITEBYTECODE"] = "1"
         env["RRV_SCENES"] = str(self.rrv())

@@ -45,7 +45,7 @@ def go(d, steps, kit):
 
 def probe_libraries(d, kit):
     """Sets d.env: the node's environment added to, with the folders of the CUDA libraries the loader does not find
-    by itself; the capabilities still missing go to d.missing, with the kit's stand-ins (lib/stubs) on the path so
+    by itself; the capabilities still missing go to d.missing, with the kit's stand-ins (lib/stubs/<capability>) on the path so
     that the programs start and run what needs none of them. False when a program cannot start at all."""
     d.env = d.child_env()
     binaries = sorted((kit / "bin").iterdir())
@@ -65,17 +65,17 @@ def probe_libraries(d, kit):
         pass
     for cap, sonames in probe.CAPABILITY_LIBS.items():
         if cap in caps:
-            gone = [so for so in sonames if so not in where]
-            line = caps[cap] + (f" ({searched[gone[0]]}, and the loader's own search)" if gone and gone[0] in searched
-                                else " (the loader's own search)")
+            how = next((searched[so] for so in sonames if so in searched), None)
+            line = caps[cap] + (f" ({how}, and the loader's own search)" if how else " (the loader's own search)")
         else:
             line = f"{probe.CAPABILITY_NAMES[cap]}: " + ", ".join(f"{so} => {where.get(so, '?')}" for so in sonames)
         d.found.append(line)
         d.say(line)
-    stubs = kit / "lib" / "stubs"
-    if caps and stubs.is_dir():
-        d.env = d.child_env(extra + [str(stubs)])
-        _, other = probe.missing_libraries(binaries, d.env)
+    stubs = [kit / "lib" / "stubs" / cap for cap in caps]
+    if caps and all(s.is_dir() for s in stubs):  # ahead of the node's folders: a half-present library is shadowed
+        d.env = d.child_env(extra, [str(s) for s in stubs])
+        still, other = probe.missing_libraries(binaries, d.env)
+        other += list(still.values())
         d.say("the kit's stand-ins for " + ", ".join(probe.CAPABILITY_NAMES[c] for c in caps) + " let the programs "
               "start; the steps that use them are skipped")
     elif caps:

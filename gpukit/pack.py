@@ -24,7 +24,8 @@ from gpukit import libs  # noqa: E402
 LIMIT = 60 << 20
 MARKER = "KIT-MANIFEST.json"
 PROGRAMS = ("poisson", "radiosity", "stream")
-STUBBED = {"libcublas.so.13": "cuBLAS 13", "libcusparse.so.12": "cuSPARSE 12"}  # lib/stubs (make_stubs)
+# lib/stubs/<capability>/<library> (make_stubs): one folder each, so that a node lacking one takes only its stand-in
+STUBBED = {"libcublas.so.13": ("cublas", "cuBLAS 13"), "libcusparse.so.12": ("cusparse", "cuSPARSE 12")}
 TEST_BINARIES = ("solve_tests",)  # the GPU unit tests (Cuda*), with the rest of the solver suite
 OWN_SCENES = ("scene1.xml", "scene2.xml")
 RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
@@ -164,18 +165,18 @@ def required_versions(path):
 
 
 def make_stubs(kit, env, cc):
-    """lib/stubs/: stand-ins for cuBLAS and cuSPARSE, one function for each of their symbols the kit's programs
+    """lib/stubs/cublas/, lib/stubs/cusparse/: stand-ins for cuBLAS and cuSPARSE, one function for each of their symbols the kit's programs
     import, each returning status 1 (NOT_INITIALIZED; the *String ones a message). gpu-kit/run puts them on the
     path only where the node lacks the real ones, so that the programs start and run every backend that needs
     neither (their steps are skipped by name): with a library absent, the loader would refuse every program."""
-    stubs = kit / "lib" / "stubs"
-    stubs.mkdir(parents=True)
     wanted, versions = set(), {}
     for b in sorted((kit / "bin").iterdir()):
         wanted |= dynamic_symbols(b, False)
         for so, names in required_versions(b).items():
             versions.setdefault(so, set()).update(names)
-    for so, lib in STUBBED.items():
+    for so, (cap, lib) in STUBBED.items():
+        stubs = kit / "lib" / "stubs" / cap
+        stubs.mkdir(parents=True)
         real = next((w for b in sorted((kit / "bin").iterdir()) for n, w in libs.ldd(b, env) if n == so), None)
         if real is None:
             raise PackError(f"no kit program links {so}: the stand-ins would be wrong")

@@ -153,10 +153,11 @@ def test_without_cublas_the_kits_stand_ins_let_the_programs_start_and_only_cubla
     """A node without cuBLAS (or cuSPARSE) runs what needs neither: the kit's stand-ins (lib/stubs) satisfy the
     loader, and the steps that use the library are skipped with the reason (finding 4 of issue 32)."""
     stubs = kit / "lib" / "stubs"
-    env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": str(stubs)}  # ahead of the loader's cache, as on such a node
+    # ahead of the loader's cache, as the kit puts them on such a node
+    env = {"PATH": "/usr/bin:/bin", "LD_LIBRARY_PATH": f"{stubs / 'cublas'}:{stubs / 'cusparse'}"}
     out = subprocess.run(["ldd", kit / "bin" / "radiosity"], env=env, capture_output=True, text=True)
-    assert f"libcublas.so.13 => {stubs / 'libcublas.so.13'}" in out.stdout, out.stdout
-    assert f"libcusparse.so.12 => {stubs / 'libcusparse.so.12'}" in out.stdout, out.stdout
+    assert f"libcublas.so.13 => {stubs / 'cublas' / 'libcublas.so.13'}" in out.stdout, out.stdout
+    assert f"libcusparse.so.12 => {stubs / 'cusparse' / 'libcusparse.so.12'}" in out.stdout, out.stdout
     assert "no version information" not in out.stdout + out.stderr, out.stderr
     for argv in (["poisson", "--backend", "openmp", "--n", "32", "--quiet"], ["radiosity", "--help"]):
         p = subprocess.run([kit / "bin" / argv[0], *argv[1:]], env=env, capture_output=True, text=True)
@@ -172,3 +173,14 @@ def test_without_cublas_the_kits_stand_ins_let_the_programs_start_and_only_cubla
     lacking = [n for n, why in reasons.items() if why]
     assert "GPU unit tests (solve_tests --gtest_filter='Cuda*')" in lacking  # they test cublas too
     assert all("cublas" in n.lower() for n in lacking if "unit tests" not in n) and len(lacking) >= 20, lacking
+    # the driver's probe puts the stand-in of a missing library ahead of the node's folders, and only that one
+    from gpukit import libs, node, probe
+    gone = "cuBLAS 13: libcublas.so.13 not found"
+    monkeypatch.setattr(probe, "missing_libraries", lambda binaries, env: (
+        ({}, []) if str(stubs / "cublas") in env["LD_LIBRARY_PATH"] else ({"cublas": gone}, [])))
+    monkeypatch.setattr(libs, "find", lambda sonames, environ=None: {so: (None, "searched nowhere") for so in sonames})
+    monkeypatch.setenv("LD_LIBRARY_PATH", "/node/driver")
+    _, d = kit_driver(kit, tmp_path / "out2", monkeypatch, 420.0)
+    assert node.probe_libraries(d, kit) is True
+    assert d.env["LD_LIBRARY_PATH"].split(":") == [str(kit / "lib"), str(stubs / "cublas"), "/node/driver"]
+    assert d.missing == {"cublas": gone} and d.found[0].startswith(gone + " (searched nowhere"), d.found
