@@ -260,7 +260,8 @@ clean:
 
 # The GPU kit (README, section "On a bare GPU node"): the programs built for CUDA_ARCHS without MPI into their own
 # objects (KIT_BUILD; KIT_OPT instead of -march=native, since the node's CPU is not this one), linked by
-# gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run.
+# gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run, and
+# stand-ins for cuBLAS and cuSPARSE built by CC (lib/stubs: used on a node that lacks them, so the rest runs).
 KIT        ?= build/gpu-kit
 CUDA_ARCHS ?= $(CUDA_ARCH)
 KIT_OPT    ?= -O3 -march=x86-64-v3
@@ -278,7 +279,7 @@ gpu-kit:
 	  MPICXX=no-mpi-in-the-kit OPT="$(KIT_OPT)" NVCCFLAGS="-O3 -std=c++17 $(KIT_GENCODE) -Xcompiler -fopenmp" \
 	  $(KIT_BUILD)/bin/poisson $(KIT_BUILD)/bin/radiosity $(KIT_BUILD)/bin/stream $(KIT_BUILD)/tests/solve_tests
 	$(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit $(KIT) --cuda-home "$(CUDA_HOME)" --archs "$(CUDA_ARCHS)" \
-	  --rrv-scenes "$(RRV_SCENES)"
+	  --rrv-scenes "$(RRV_SCENES)" --cc "$(CC)"
 
 # Brings a kit's archive home: its records into results/<the GPU node's label>/ (append-only; refuses a truncated
 # archive or a record without a GPU with one line).

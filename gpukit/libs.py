@@ -11,8 +11,8 @@ import subprocess
 SYSTEM = ("linux-vdso", "linux-gate", "ld-linux-x86-64", "ld-linux-aarch64", "libc", "libm", "libdl", "librt",
           "libpthread", "libutil", "libresolv", "libmvec", "libstdc++", "libgcc_s", "libgomp")
 CUDA = ("libcublas", "libcublasLt", "libcusparse", "libnvJitLink", "libcuda", "libnvidia-ml", "libnvidia-ptxjitcompiler")
-# The CUDA libraries the binaries link dynamically, all found in one folder (the solver's csr product is cuSPARSE's).
-CUBLAS_SONAMES = ("libcublas.so.13", "libcublasLt.so.13", "libcusparse.so.12", "libnvJitLink.so.13")
+# The CUDA libraries the binaries link dynamically (the solver's csr product is cuSPARSE's).
+CUDA_SONAMES = ("libcublas.so.13", "libcublasLt.so.13", "libcusparse.so.12", "libnvJitLink.so.13")
 DEFAULT_TOOLKIT = "/usr/local/cuda"
 
 
@@ -56,9 +56,10 @@ def problems(path, kit, env=None):
     return bad
 
 
-def cublas_candidates(environ):
-    """Where cuBLAS 13 may lie on a node, in the order looked at: the toolkit's lib64 ($CUDA_HOME, then
-    /usr/local/cuda), then the library folder of the nvidia-cublas Python package in python3's site folders."""
+def candidates(environ):
+    """Where the CUDA libraries may lie on a node beyond the loader's own search, in the order looked at: the
+    toolkit's lib64 ($CUDA_HOME, then /usr/local/cuda), then the library folders of the nvidia CUDA 13 Python
+    packages (nvidia-cublas, nvidia-cusparse, nvidia-nvjitlink) in python3's site folders."""
     seen, out = set(), []
 
     def add(d, how):
@@ -79,17 +80,19 @@ def cublas_candidates(environ):
     except AttributeError:
         pass
     for sp in sites:
-        for sub in (("nvidia", "cublas", "lib"), ("nvidia", "cu13", "lib")):
-            add(os.path.join(sp, *sub), "the nvidia-cublas Python package (" + os.path.join(sp, *sub) + ")")
+        for sub in (("nvidia", "cu13", "lib"), ("nvidia", "cublas", "lib"), ("nvidia", "cusparse", "lib"),
+                    ("nvidia", "nvjitlink", "lib")):
+            add(os.path.join(sp, *sub), "the nvidia CUDA Python packages (" + os.path.join(sp, *sub) + ")")
     return out
 
 
-def find_cublas(environ=None):
-    """(folder, how it was found) of the first candidate that has every one of CUBLAS_SONAMES, or
-    (None, what was searched)."""
+def find(sonames, environ=None):
+    """{soname: (folder, how it was found)} of the first candidate folder holding each of `sonames`; a soname
+    found nowhere maps to (None, what was searched)."""
     environ = os.environ if environ is None else environ
-    cands = cublas_candidates(environ)
-    for d, how in cands:
-        if all(os.path.isfile(os.path.join(d, so)) for so in CUBLAS_SONAMES):
-            return d, how
-    return None, "searched " + ", ".join(d for d, _ in cands[:6]) + (" and more" if len(cands) > 6 else "")
+    cands = candidates(environ)
+    searched = "searched " + ", ".join(d for d, _ in cands[:6]) + (" and more" if len(cands) > 6 else "")
+    out = {}
+    for so in sonames:
+        out[so] = next(((d, how) for d, how in cands if os.path.isfile(os.path.join(d, so))), (None, searched))
+    return out

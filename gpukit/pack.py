@@ -24,13 +24,16 @@ from gpukit import libs  # noqa: E402
 LIMIT = 60 << 20
 MARKER = "KIT-MANIFEST.json"
 PROGRAMS = ("poisson", "radiosity", "stream")
+# lib/stubs/<capability>/<library> (make_stubs): one folder each, so that a node lacking one takes only its stand-in
+STUBBED = {"libcublas.so.13": ("cublas", "cuBLAS 13"), "libcusparse.so.12": ("cusparse", "cuSPARSE 12")}
 TEST_BINARIES = ("solve_tests",)  # the GPU unit tests (Cuda*), with the rest of the solver suite
 OWN_SCENES = ("scene1.xml", "scene2.xml")
 RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
 # The GPU integration tests and what they import, at the same paths as in the repository.
 TESTS = ("tests/conftest.py", "tests/integration/test_radiosity_gpu.py")
-DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/driver.py",
-          "gpukit/summary.py", "common/machine_label.py")
+DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/checks.py", "gpukit/plan.py",
+          "gpukit/probe.py", "gpukit/node.py", "gpukit/archive.py", "gpukit/driver.py", "gpukit/summary.py",
+          "common/machine_label.py")
 
 
 class PackError(Exception):
@@ -93,6 +96,7 @@ def fill(a, kit):
         if bad:
             raise PackError(f"{b.name}: " + "; ".join(bad))
 
+    make_stubs(kit, env, a.cc)
     for s in OWN_SCENES:
         copy(ROOT / "radiosity" / "scenes" / s, kit / "radiosity" / "scenes" / s)
     rrv = Path(a.rrv_scenes)
@@ -140,6 +144,57 @@ def fill(a, kit):
     print(f"gpu-kit: {len(files)} files; libraries carried: {', '.join(carried) or 'none'}")
 
 
+def dynamic_symbols(path, defined):
+    out = subprocess.run(["nm", "-D", "--defined-only" if defined else "--undefined-only", str(path)],
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        raise PackError(f"nm -D {path} failed: {out.stderr.strip()}")
+    return {l.split()[-1].split("@")[0] for l in out.stdout.splitlines() if l.strip()}
+
+
+def required_versions(path):
+    """{library: {symbol version}} that `path` requires (objdump -p's "Version References")."""
+    out = subprocess.run(["objdump", "-p", str(path)], capture_output=True, text=True)
+    found, lib = {}, None
+    for line in out.stdout.split("Version References:")[-1].splitlines():
+        if line.strip().startswith("required from "):
+            lib = line.strip()[len("required from "):].rstrip(":")
+        elif lib and line.strip() and len(line.split()) == 4:
+            found.setdefault(lib, set()).add(line.split()[-1])
+    return found
+
+
+def make_stubs(kit, env, cc):
+    """lib/stubs/cublas/, lib/stubs/cusparse/: stand-ins for cuBLAS and cuSPARSE, one function for each of their symbols the kit's programs
+    import, each returning status 1 (NOT_INITIALIZED; the *String ones a message). gpu-kit/run puts them on the
+    path only where the node lacks the real ones, so that the programs start and run every backend that needs
+    neither (their steps are skipped by name): with a library absent, the loader would refuse every program."""
+    wanted, versions = set(), {}
+    for b in sorted((kit / "bin").iterdir()):
+        wanted |= dynamic_symbols(b, False)
+        for so, names in required_versions(b).items():
+            versions.setdefault(so, set()).update(names)
+    for so, (cap, lib) in STUBBED.items():
+        stubs = kit / "lib" / "stubs" / cap
+        stubs.mkdir(parents=True)
+        real = next((w for b in sorted((kit / "bin").iterdir()) for n, w in libs.ldd(b, env) if n == so), None)
+        if real is None:
+            raise PackError(f"no kit program links {so}: the stand-ins would be wrong")
+        names = sorted(wanted & dynamic_symbols(real, True))
+        src = stubs / f"{so}.c"
+        src.write_text(f'static const char why[] = "{lib} is not on this node (a stand-in of the GPU kit, lib/stubs)";\n'
+                       + "".join(f"const char* {n}(void) {{ return why; }}\n" if n.endswith("String") else
+                                 f"int {n}(void) {{ return 1; }}\n" for n in names))
+        script = stubs / f"{so}.map"  # the symbol versions the programs ask of it (cuBLAS 13: "libcublas.so.13")
+        script.write_text("".join(f"{v} {{ global: *; }};\n" for v in sorted(versions.get(so, ()))) or "{ global: *; };\n")
+        out = subprocess.run([cc, "-shared", "-fPIC", "-O1", f"-Wl,-soname,{so}", f"-Wl,--version-script,{script}",
+                              "-o", str(stubs / so), str(src)], capture_output=True, text=True)
+        src.unlink()
+        script.unlink()
+        if out.returncode != 0:
+            raise PackError(f"{cc} could not build the stand-in {so}: {out.stderr.strip()[:300]}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", required=True, help="the kit's build folder (binaries in bin/, tests/)")
@@ -147,10 +202,11 @@ def main():
     ap.add_argument("--cuda-home", required=True, help="the CUDA toolkit the binaries were built with")
     ap.add_argument("--archs", required=True, help="the CUDA architectures built, e.g. '80 90'")
     ap.add_argument("--rrv-scenes", required=True, help="RRV's scenes: room2.xml, room3.xml, teapot.obj, COPYING")
+    ap.add_argument("--cc", default="cc", help="the C compiler of the stand-ins for cuBLAS and cuSPARSE (default cc)")
     a = ap.parse_args()
     try:
         pack(a)
-    except (PackError, RuntimeError, OSError) as e:
+    except (PackError, RuntimeError, OSError, subprocess.SubprocessError) as e:
         print(f"gpu-kit: {e}", file=sys.stderr)
         sys.exit(2)
 

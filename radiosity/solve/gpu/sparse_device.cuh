@@ -143,11 +143,6 @@ class SparseDevice {
     });
     if (cusparse_) describe(m);
   }
-  ~SparseDevice() {
-    if (X_) cusparseDestroyDnMat(X_);
-    if (P_) cusparseDestroyDnMat(P_);
-    if (A_) cusparseDestroySpMat(A_);
-  }
   SparseDevice(const SparseDevice&) = delete;
   SparseDevice& operator=(const SparseDevice&) = delete;
 
@@ -157,9 +152,9 @@ class SparseDevice {
     clock_.timed(DeviceClock::kCompute, [&] {
       if (cusparse_) {
         const float one = 1, zero = 0;
-        CUSPARSE_CHECK(cusparseDnMatSetValues(X_, const_cast<T*>(x)));
+        CUSPARSE_CHECK(cusparseDnMatSetValues(d_.X, const_cast<T*>(x)));
         CUSPARSE_CHECK(cusparseSpMM(handle_->get(), CUSPARSE_OPERATION_NON_TRANSPOSE,
-                                    CUSPARSE_OPERATION_NON_TRANSPOSE, &one, A_, X_, &zero, P_, CUDA_R_32F,
+                                    CUSPARSE_OPERATION_NON_TRANSPOSE, &one, d_.A, d_.X, &zero, d_.P, CUDA_R_32F,
                                     CUSPARSE_SPMM_ALG_DEFAULT, work_ ? work_->get() : nullptr));
         sparse_affine_kernel<T><<<grid_for(n_, 1024), kBlock, 0, s_>>>(n_, cs_, ps_, x, p_.get(), rho, e, y, a, cs,
                                                                          d);
@@ -209,17 +204,17 @@ class SparseDevice {
   void describe(size_t entries) {
     handle_.emplace(s_);
     const int64_t n = int64_t(n_);
-    CUSPARSE_CHECK(cusparseCreateCsr(&A_, n, n, int64_t(entries), start_.get(), index_.get(), data_.get(),
+    CUSPARSE_CHECK(cusparseCreateCsr(&d_.A, n, n, int64_t(entries), start_.get(), index_.get(), data_.get(),
                                      CUSPARSE_INDEX_32I, CUSPARSE_INDEX_32I, CUSPARSE_INDEX_BASE_ZERO, CUDA_R_32F));
     const bool aos = ps_ != 1;  // AOS: records of 3, row-major; SOA: channels of `stride`, column-major
     const int64_t ld = aos ? 3 : int64_t(cs_);
     const cusparseOrder_t order = aos ? CUSPARSE_ORDER_ROW : CUSPARSE_ORDER_COL;
-    CUSPARSE_CHECK(cusparseCreateDnMat(&X_, n, 3, ld, p_.get(), CUDA_R_32F, order));
-    CUSPARSE_CHECK(cusparseCreateDnMat(&P_, n, 3, ld, p_.get(), CUDA_R_32F, order));
+    CUSPARSE_CHECK(cusparseCreateDnMat(&d_.X, n, 3, ld, p_.get(), CUDA_R_32F, order));
+    CUSPARSE_CHECK(cusparseCreateDnMat(&d_.P, n, 3, ld, p_.get(), CUDA_R_32F, order));
     const float one = 1, zero = 0;
     size_t bytes = 0;
     CUSPARSE_CHECK(cusparseSpMM_bufferSize(handle_->get(), CUSPARSE_OPERATION_NON_TRANSPOSE,
-                                           CUSPARSE_OPERATION_NON_TRANSPOSE, &one, A_, X_, &zero, P_, CUDA_R_32F,
+                                           CUSPARSE_OPERATION_NON_TRANSPOSE, &one, d_.A, d_.X, &zero, d_.P, CUDA_R_32F,
                                            CUSPARSE_SPMM_ALG_DEFAULT, &bytes));
     if (bytes > 0) work_.emplace(bytes);
   }
@@ -235,8 +230,20 @@ class SparseDevice {
   hpcgi::DeviceArray<T> p_;  // cuSPARSE's F x
   std::optional<hpcgi::SparseHandle> handle_;
   std::optional<hpcgi::DeviceArray<unsigned char>> work_;
-  cusparseSpMatDescr_t A_ = nullptr;
-  cusparseDnMatDescr_t X_ = nullptr, P_ = nullptr;
+  // cuSPARSE's descriptors, a member of their own so that they are destroyed even when describe() throws in the
+  // constructor's body (then ~SparseDevice does not run, but its members' destructors do).
+  struct Descriptors {
+    cusparseSpMatDescr_t A = nullptr;
+    cusparseDnMatDescr_t X = nullptr, P = nullptr;
+    Descriptors() = default;
+    Descriptors(const Descriptors&) = delete;
+    Descriptors& operator=(const Descriptors&) = delete;
+    ~Descriptors() {
+      if (X) cusparseDestroyDnMat(X);
+      if (P) cusparseDestroyDnMat(P);
+      if (A) cusparseDestroySpMat(A);
+    }
+  } d_;
 };
 
 }  // namespace radiosity::gpu

@@ -411,3 +411,26 @@ TEST(CudaSparse, StoragesTheGpuBackendsDoNotReadAreRefused) {
     }
   }
 }
+
+// A system with neither dense F nor a stored matrix is refused by each GPU factory itself (defence behind the
+// registry's storage check above): one clear UsageError, never a null F read on the device. Needs a GPU: the
+// factories look for one first.
+TEST(CudaRefusals, EachGpuFactoryRefusesASystemWithoutF) {
+  SKIP_WITHOUT_GPU();
+#ifdef HAVE_CUDA
+  System sys = random_problem(10, 99).sys;
+  sys.F = nullptr;
+  for (const Gpu& g : every_gpu_config()) {
+    SCOPED_TRACE(g.label);
+    const SolveConfig c = config(g, "jacobi", "float", 4);
+    try {
+      if (g.backend == "cuda") make_cuda<float>(sys, c, 4);
+      else if (g.backend == "cublas") make_cublas<float>(sys, c, 4);
+      else make_hybrid<float>(sys, c, 4);
+      ADD_FAILURE() << "accepted a system without F";
+    } catch (const hpcgi::UsageError& e) {
+      EXPECT_TRUE(contains(e.what(), "dense form factors are read as the file's float32 values")) << e.what();
+    }
+  }
+#endif
+}
