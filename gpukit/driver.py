@@ -274,7 +274,12 @@ def main(argv=None):
         print(f"gpu-kit/run: the budget must exceed {RESERVE_S / (1 - SLACK):g} s, got {a.budget:g}", file=sys.stderr)
         return EXIT_USAGE
     d = Driver(a)
+    # The node's id (common/machine_label.py) is kept in the output folder, as everything the kit writes: the same
+    # --out gives the same label again; the programs' records carry it (HPCGI_MACHINE_ID in their environment).
+    if not os.environ.get("HPCGI_MACHINE_ID") and not os.environ.get("HPCGI_STATE_DIR"):
+        os.environ["HPCGI_STATE_DIR"] = str(d.out / "state")
     try:
+        os.environ["HPCGI_MACHINE_ID"] = machine_label.machine_id()
         d.label = machine_label.describe()["label"]
     except ValueError as e:
         print(f"gpu-kit/run: {e}", file=sys.stderr)
