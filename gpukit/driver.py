@@ -44,7 +44,7 @@ RESERVE_S = 10  # kept back for the summary and the archive
 # this project's 2-core development machine scaled to 16 cores, GPU work from the bytes it streams at 3.5 TB/s
 # (an H100 SXM streams about 3, an H200 about 4.3). The budget is what protects the wall clock: a step runs only
 # when its estimate fits what is left, and its commands are stopped at what is left.
-# Form factors (hemicube R = 256, the file's write included): room3 took 12.7 s on 2 threads here (README), room2
+# Form factors (hemicube R = 256, the file's write included): room3 took about 13 s on 2 threads here (results/vm-amd-epyc-2c/room3_pipeline/vm.jsonl), room2
 # has 1.77 times its patches and a row's cost grows with the patches in front of it.
 FF_ESTIMATE_S = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 4, "room2.xml": 12}
 
