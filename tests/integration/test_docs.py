@@ -137,15 +137,25 @@ def test_every_doc_is_linked_from_the_readme():
     assert not missing, f"README.md links no docs/{missing}"
 
 
+def anchors(path):
+    """The anchors GitHub makes of a markdown file's headings."""
+    lines = path.read_text().splitlines()
+    return {re.sub(r"[^\w\- ]", "", lines[i - 1].lstrip("#").strip().lower()).replace(" ", "-")
+            for i, line in prose_lines(path.read_text()) if line.startswith("#")}
+
+
 @pytest.mark.parametrize("doc", docs(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_relative_link_resolves(doc):
     broken = []
     for _, line in prose_lines(doc.read_text()):
         for link in LINK.findall(line):
             target = link.split("#")[0]
-            if not target or re.match(r"[a-z]+:", target):
+            if re.match(r"[a-z]+:", target):
                 continue
-            if not (doc.parent / target).exists():
+            path = doc.parent / target if target else doc
+            if not path.exists():
+                broken.append(link)
+            elif "#" in link and path.suffix == ".md" and link.split("#", 1)[1] not in anchors(path):
                 broken.append(link)
     assert not broken, f"{doc.relative_to(ROOT)}: links that resolve to nothing: {broken}"
 
