@@ -96,9 +96,27 @@ def figures(text):
     return found
 
 
+def decimals(number):
+    if "e" in number:
+        return None
+    return len(number.split(".")[1]) if "." in number else 0
+
+
+def held(number, values):
+    """A figure is held when a generated file has it, as written or rounded as the doc rounds it (a table's
+    747.196718 is the doc's 747)."""
+    v = value(number)
+    places = decimals(number.replace(" ", "").replace(",", ""))
+    if v in values:
+        return True
+    if places is None:
+        return False
+    return any(round(x, places) == v for x in values if abs(x - v) < 1)
+
+
 def unsourced(text, values):
     return [f"line {i}: {written}" for i, written, numbers in figures(text)
-            if any(value(n) not in values for n in numbers)]
+            if not all(held(n, values) for n in numbers)]
 
 
 @pytest.fixture(scope="module")
