@@ -232,7 +232,7 @@ else
 endif
 
 # The bandwidth limit, our solvers per iteration and their peers on this machine, one table of ratios
-# (slurm/bench: the bench-* case lists of PRESET through the local runner; README, section Performance).
+# (slurm/bench: the bench-* case lists of PRESET through the local runner; docs/design-notes.md, section Performance).
 bench:
 	@$(CHECK_LABEL)
 	@$(DIRTY_NOTE)
@@ -258,7 +258,7 @@ audit:
 clean:
 	rm -rf $(BUILD) $(BIN)
 
-# The GPU kit (README, section "On a bare GPU node"): the programs built for CUDA_ARCHS without MPI into their own
+# The GPU kit (docs/running.md, section "On a bare GPU node"): the programs built for CUDA_ARCHS without MPI into their own
 # objects (KIT_BUILD; KIT_OPT instead of -march=native, since the node's CPU is not this one), linked by
 # gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run, and
 # stand-ins for cuBLAS and cuSPARSE built by CC (lib/stubs: used on a node that lacks them, so the rest runs).

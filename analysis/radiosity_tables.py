@@ -172,8 +172,8 @@ def storage_note(df):
     used = (df["params.storage"].fillna("dense") + " " + values.fillna("float32")).value_counts()
     if list(used.index) == ["dense float32"]:
         return ("F as the report stored it, dense float32, in every run (the case lists pin `--storage dense`; "
-                "the default `--storage auto` would read a sparse storage where F has many zeros: README, "
-                "\"Sparse form factors\" in section Speed against accuracy).")
+                "the default `--storage auto` would read a sparse storage where F has many zeros: "
+                "docs/design-notes.md, \"Sparse form factors\").")
     return "F read as " + ", ".join(f"{k} ({v} runs)" for k, v in used.items()) + "."
 
 

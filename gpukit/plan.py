@@ -16,7 +16,7 @@ PRESET = "paper"
 RESERVE_S = 10  # kept back for the summary and the archive
 SLACK = 0.2  # the share of the budget the plan leaves free: its steps fit (1 - SLACK) * budget - RESERVE_S
 BYTES_PER_S = 2.8e12
-# Form factors (hemicube R = 256, the file's write included): room3 took 12.7 s on 2 threads here (README), room2
+# Form factors (hemicube R = 256, the file's write included): room3 took 12.7 s on 2 threads here (docs/design-notes.md), room2
 # has 1.77 times its patches and a row's cost grows with the patches in front of it.
 FF_ESTIMATE_S = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 4, "room2.xml": 12}
 SCENE_ESTIMATE_S = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}

@@ -224,7 +224,7 @@ def table42_audit(preset, p):
             *(run(s, w, f"--method {m} --tol 1e-10 --precision double --start {start} --threads {cores}")
               for m in ("jacobi", "gauss-seidel", "bicgstab") if (m, start) != ("bicgstab", "zero")),
             # one thread: SOR proper (on several threads the blocks are coupled by Jacobi, and over-relaxed Jacobi
-            # diverges where F has eigenvalues near -1/rho: scene2 at omega 1.2 on 2 threads does; README)
+            # diverges where F has eigenvalues near -1/rho: scene2 at omega 1.2 on 2 threads does; docs/programs.md)
             *(run(s, w, f"--method sor --omega {o:g} --tol 1e-6 --start {start} --threads 1")
               for o in a["omegas"] if w == "exact" and start == "rrv"))])
     return e
@@ -276,7 +276,7 @@ ACCURACY = {
 TOLERANCES = [10.0 ** -k for k in range(1, 11)]
 STEPS = [1, 2, 4, 8, 16, 32, 64]
 THRESHOLDS = [0, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3]
-ROOM3_THRESHOLDS = [0, 1e-6, 1e-4]  # README, "Speed against accuracy": dense and CSR memory and their error
+ROOM3_THRESHOLDS = [0, 1e-6, 1e-4]  # docs/design-notes.md, "Speed against accuracy": dense and CSR memory and their error
 EXTREME_RHO = ["0.9", "0.99", "0.999", "0.9999"]
 
 

@@ -1,6 +1,6 @@
 """Bad input and numerical failure through bin/radiosity, as a user or a job array meets them: every case ends
 with its exit status (2 bad input, 3 numerical failure, 4 not converged, 5 disagreed), one line on stderr, a record that says what happened
-(for a failed solve) and no half-made output. The README's table "Reliability: bad input and faults" is made
+(for a failed solve) and no half-made output. The table of docs/reliability.md ("Reliability: bad input and faults") is made
 from these cases.
 
 The form-factor files that make a solve go wrong are made by tests/ff_file.py from a real file of the scene:

@@ -53,7 +53,7 @@ def test_gauss_seidel_and_sor_agree_with_jacobi_on_every_cpu_backend(scenes, nam
     jac = solve(args, ff, "--method", "jacobi", "--tol", "1e-6", "--backend", "openmp", "--threads", "1")
     for backend, layout, threads in CPU if name != "room3" else CPU[::3]:
         # SOR over-relaxed on one block (one thread); on several, under-relaxed: the blocks' Jacobi coupling is then
-        # a regular splitting of the M-matrix I - rho F and converges (over-relaxed it need not: README)
+        # a regular splitting of the M-matrix I - rho F and converges (over-relaxed it need not: docs/programs.md)
         omega = "1.2" if threads == "1" else "0.9"
         for method in (["--method", "gauss-seidel"], ["--method", "sor", "--omega", omega]):
             rec = solve(args, ff, *method, "--tol", "1e-6", "--backend", backend, "--layout", layout, "--threads", threads)

@@ -8,7 +8,7 @@
 //
 // Measured on room3.xml's F at R = 256 (9680 patches), 2 threads, this project's 2-core EPYC VM: `make bench`
 // (bench-relight, commit 573d0ed) k = 8 in 3.71 ms (float32) and 3.32 ms (float16), 1.33-1.53 and 1.41-1.82 times
-// the one-right-hand-side runs product timed in turns with it (README, "Sparse F for the relighting"). The
+// the one-right-hand-side runs product timed in turns with it (docs/design-notes.md, "Sparse F for the relighting"). The
 // multiply-adds, not F's bytes, set the pace: a scratch program's blocks over all 9680 rows, 1.67 M columns × 24 /
 // 2 cores / 2 a cycle, are 3.8 ms at 2.6 GHz. In that program F's values asked for 4 KiB ahead (kSparsePrefetchBytes)
 // took k = 8 in float32 from 6.0 ms (no prefetch) to 3.7-3.9 ms; 2 KiB: 4.3-4.6 ms, 8 KiB: 4.2 ms.

@@ -3,7 +3,7 @@
 // value, kBlockRows values a column (0 where a row has none), in segments of consecutive columns. A column of a
 // block is then one vector of 16 floats, multiplied by every right-hand side's x_j broadcast (row_block_kernels.hpp):
 // 24 fused multiply-adds for 8 right-hand sides of three channels, against the two or more loads, a broadcast and a
-// column a value that the per-value products pay (multi-right-hand-side kernels tried before: README, "Sparse F
+// column a value that the per-value products pay (multi-right-hand-side kernels tried before: docs/design-notes.md, "Sparse F
 // for the relighting").
 //
 // What it costs: the zeros in a block's columns. On room3.xml at R = 256 (9680 patches, 17.5 M non-zeros) blocks
