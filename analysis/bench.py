@@ -9,6 +9,7 @@ import sys
 
 import pandas as pd
 
+from analysis.escape import md, md_table
 from analysis.records import load, tables_dir
 
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
@@ -268,8 +269,7 @@ def mg_rows(preset, host):
 
 def markdown(rows, floatfmt):
     """rows (dicts) as a Markdown table, empty cells where a row has no value (not "nan")."""
-    df = pd.DataFrame(rows)
-    return df.astype(object).where(df.notna(), None).to_markdown(index=False, floatfmt=floatfmt, missingval="")
+    return md_table(pd.DataFrame(rows), floatfmt)
 
 
 def write(preset):
@@ -280,7 +280,7 @@ def write(preset):
     mg_out, mg_targets = mg_rows(preset, host)
     sp_out, sp_targets = sparse_rows(preset, host, _on(load("bench-stream", preset), host))
     table = markdown(out, ".3g")
-    head = (f"CPU timings (host wall clock) on {host} ({cpu}), {threads} threads, OMP_PROC_BIND=close, medians over "
+    head = (f"CPU timings (host wall clock) on {md(host)} ({md(cpu)}), {threads} threads, OMP_PROC_BIND=close, medians over "
             f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "
             f"triad next to it: the STREAM triad bandwidth measured just before and just after the case (median); "
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "

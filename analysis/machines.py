@@ -2,10 +2,12 @@
 (Table 4.1 at N = 1024, Table 4.2 on scene 3, a Jacobi step of room3, the triad bandwidth), each from that
 machine's own records."""
 import json
+import sys
 
 import pandas as pd
 
 from analysis import radiosity_tables, table41
+from analysis.escape import md, md_table
 from analysis.records import load, machine_dir, machines, on, reference, report_dir
 
 
@@ -13,7 +15,12 @@ def describe(label):
     """What machine.json (written by the runner) says of a machine, else what its records' provenance says."""
     f = machine_dir(label) / "machine.json"
     if f.exists():
-        d = json.loads(f.read_text())
+        try:
+            d = json.loads(f.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+            raise ValueError(f"{f}: not readable JSON ({e})") from e
+        if not isinstance(d, dict):
+            raise ValueError(f"{f}: not a JSON object")
         return d.get("host"), d.get("cpu_model"), d.get("cpus_online"), d.get("gpu")
     for exp in ("table41", "table42", "formfactors", "bench-stream"):
         df = load(exp)
@@ -54,16 +61,23 @@ def headline(preset):
 
 def write(preset):
     ref = reference()
-    rows = []
+    rows, broken = [], []
     for label in machines():
         with on(label):
-            host, cpu, cpus, gpu = describe(label)
-            row = {"machine": label + (" (reference)" if label == ref else ""), "host": host, "CPU": cpu,
-                   "CPUs": cpus, "GPU": gpu or "none", **headline(preset)}
+            try:
+                host, cpu, cpus, gpu = describe(label)
+                row = {"machine": label + (" (reference)" if label == ref else ""), "host": host, "CPU": cpu,
+                       "CPUs": cpus, "GPU": gpu or "none", **headline(preset)}
+            except (ValueError, KeyError, TypeError) as e:  # one machine's bad folder never hides the others
+                print(f"analysis: machine {label} left out of MACHINES.md: {e}", file=sys.stderr)
+                broken.append(f"- {md(label)}: left out, {md(e)}")
+                continue
         rows.append(row)
     out = report_dir().parent / "MACHINES.md"
     out.parent.mkdir(parents=True, exist_ok=True)
-    body = pd.DataFrame(rows).to_markdown(index=False, floatfmt=".4g").replace(" nan ", " — ") if rows else "none"
+    body = md_table(pd.DataFrame(rows)) if rows else "none"
+    if broken:
+        body += "\n\nMachines whose folder could not be read:\n\n" + "\n".join(broken)
     out.write_text(
         f"# Machines with records ({preset} preset)\n\n"
         "Every folder of `results/` is one machine's records (`results/<machine>/<experiment>/<preset>.jsonl`, "

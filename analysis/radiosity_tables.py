@@ -6,6 +6,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from analysis.escape import md, md_table  # noqa: E402
 from analysis.records import (load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
                               skipped, summarise, tables_dir, writing)
 
@@ -47,7 +48,7 @@ def no_gpu_note(experiment, preset):
     s = skipped(experiment, preset)
     if s.empty:
         return ""
-    hosts = ", ".join(sorted(set(s["host"])))
+    hosts = md(", ".join(sorted(set(map(str, s["host"])))))
     notes = []
     if (s["reason"] == "no GPU on this machine").any():
         notes.append(f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them.")
@@ -75,7 +76,7 @@ def compare(ours, paper, key, columns):
 
 
 def markdown(title, table, notes):
-    body = table.to_markdown(index=False, floatfmt=".4g").replace(" nan ", " — ")
+    body = md_table(table)
     return "\n".join([f"### {title}", "", body, "", *[n for n in notes if n]]) + "\n"
 
 
@@ -106,12 +107,13 @@ def emit(name, preset, build, key):
     if ref and ref != machine():
         with on(ref):
             theirs = build(preset)
-        title += f", on {machine()} beside the reference machine {ref}"
+        title += f", on {md(machine())} beside the reference machine {md(ref)}"
         if theirs is None:
-            notes = [*notes, f"The reference machine {ref} has no records of this table."]
+            notes = [*notes, f"The reference machine {md(ref)} has no records of this table."]
         else:
             table = beside(table.copy(), theirs[1], key, "ref")
-            notes = [*notes, f"ours: this machine ({machine()}); ref: the reference machine {ref} (results/{ref}/), "
+            notes = [*notes, f"ours: this machine ({md(machine())}); ref: the reference machine {md(ref)} "
+                             f"(results/{md(ref)}/), "
                              "with its own records; ours/ref: this machine's time over the reference's."]
     return write(name, preset, title, table, notes, detail)
 
@@ -158,7 +160,7 @@ def threads_note(df):
     th = sorted(set(df["params.threads"].dropna().astype(int)))
     hosts = sorted(set(df["provenance.host"]))
     note = df.attrs.get("no_answer", "")
-    parts = [f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s).",
+    parts = [f"Ours: median of repeats on {md(', '.join(map(str, hosts)))} with {', '.join(map(str, th))} OpenMP thread(s).",
              storage_note(df), note]
     return " ".join(p for p in parts if p)
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis.escape import md
 from analysis.record import validate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -174,7 +175,7 @@ def no_answer_note(df):
         what = ", ".join(sorted({" ".join(str(a) for a in r["argv"][1:] if a not in ("--quiet",))
                                  if isinstance(r.get("argv"), list) else str(r.get("provenance.env.HPCGI_CASE"))
                                  for _, r in g.head(3).iterrows()}))
-        parts.append(f"{len(g)} with exit status {int(code)} ({NO_ANSWER.get(int(code), 'unknown')}; e.g. {what})")
+        parts.append(f"{len(g)} with exit status {int(code)} ({NO_ANSWER.get(int(code), 'unknown')}; e.g. {md(what)})")
     return f"No answer, left out of the numbers above: {'; '.join(parts)}."
 
 

@@ -6,6 +6,7 @@ import os
 
 import pandas as pd
 
+from analysis.escape import md
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
 from analysis.records import load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, tables_dir
 
@@ -24,7 +25,7 @@ def provenance(preset):
                       ("backend_info.gpu", "GPU"), ("backend_info.mpi_library", "MPI")):
         if col in df.columns:
             vals = sorted({str(v) for v in df[col].dropna()})
-            lines.append(f"- {what}: {', '.join(vals) if vals else 'none'}")
+            lines.append(f"- {what}: {md(', '.join(vals)) if vals else 'none'}")
     if "backend_info.gpu" not in df.columns:
         lines.append("- GPU: none used (no GPU on this machine)")
     if "provenance.loadavg_1min" in df.columns:
@@ -145,7 +146,7 @@ def not_run(preset):
     for f in sorted(machine_dir().glob(f"*/{preset}.skipped")):
         s = skipped(f.parent.name, preset)
         for reason, g in (s.groupby("reason") if len(s) else ()):
-            rows.append(f"| {f.parent.name} | {len(g)} | {reason} |")
+            rows.append(f"| {md(f.parent.name)} | {len(g)} | {md(reason)} |")
     if not rows:
         return ["Every case of this preset ran on this machine."]
     out = ["| experiment | cases skipped | why |", "|---|---|---|", *rows, ""]
@@ -159,7 +160,7 @@ def claims(preset):
     """The claims table: this machine's verdicts, and for any other machine than the reference the reference's."""
     ref = reference()
     other = ref if ref and ref != machine() else None
-    head = "| claim | our data | the numbers that decide it |" + (f" reference {other} |" if other else "")
+    head = "| claim | our data | the numbers that decide it |" + (f" reference {md(other)} |" if other else "")
     rows = [head, "|---|---|---|" + ("---|" if other else "")]
     for text, fn in CLAIMS:
         verdict, why = fn(preset)
@@ -175,16 +176,16 @@ def write(preset):
     prov, n = provenance(preset)
     ref = reference()
     if ref == machine():
-        whose = f"This is the reference machine ({ref}), which every other machine's report is set beside."
+        whose = f"This is the reference machine ({md(ref)}), which every other machine's report is set beside."
     elif ref:
-        whose = (f"Each table sets this machine's numbers (ours) beside the reference machine's ({ref}, "
-                 f"`results/{ref}/`) and the report's; each claim is decided on this machine's records, the "
+        whose = (f"Each table sets this machine's numbers (ours) beside the reference machine's ({md(ref)}, "
+                 f"results/{md(ref)}/) and the report's; each claim is decided on this machine's records, the "
                  "reference's verdict beside it.")
     else:
         whose = "There is no reference machine's record folder here to set these numbers beside."
-    out = [f"# Reproduced report ({preset} preset) on {machine()}", "",
+    out = [f"# Reproduced report ({md(preset)} preset) on {md(machine())}", "",
            "The report: *Real Time Global Illumination Solutions to the Radiosity Algorithm using Hybrid CPU/GPU "
-           f"Nodes* (UMBC HPCF-2014-15). Every number below comes from this machine's records in `results/{machine()}/` "
+           f"Nodes* (UMBC HPCF-2014-15). Every number below comes from this machine's records in results/{md(machine())}/ "
            f"(made by `make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from "
            "`results/paper/`. Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core "
            "Intel E5-2650v2 and an NVIDIA K20), so ratios of times compare machines as much as codes. " + whose, "",
