@@ -9,8 +9,8 @@ The machine is --machine, else $MACHINE, else this machine's own label (common/m
 import argparse
 import sys
 
-from analysis import accuracy, figure42, machines, mpi_radiosity, radiosity_tables, records, relight, report, \
-    table41, table42_audit
+from analysis import accuracy, figure42, machines, mpi_radiosity, protocol, radiosity_tables, records, relight, \
+    report, table41, table42_audit
 
 
 def main():
@@ -19,7 +19,11 @@ def main():
     ap.add_argument("command", choices=["tables", "report"])
     ap.add_argument("preset", nargs="?", default="quick")
     ap.add_argument("--machine", help="whose records (default: $MACHINE, else this machine)")
+    ap.add_argument("--all-records", action="store_true",
+                    help="also use records from dirty trees and unknown commits (left out by default; never for "
+                         "committed tables)")
     a = ap.parse_args()
+    protocol.include_all(a.all_records)
     try:
         if a.machine:
             records.use(a.machine)
