@@ -84,15 +84,23 @@ def _unclean(df):
 
 def provenance_filter(df, newest):
     """newest(df) of df's clean records (unless include_all). Counted per file: the records from dirty trees and
-    unknown commits that newest(df) would have used."""
+    unknown commits not superseded by the clean records kept (of a case with none kept, or made since the first of
+    them)."""
     if df.empty or _settings["all"]:
         return newest(df)
-    would = newest(df)
-    for why, mask in zip(("dirty", "unknown_commit"), _unclean(would)):
-        for f, n in would[mask].groupby("file").size().items():
-            COUNTS[f][why] = int(n)
     dirty, unknown = _unclean(df)
-    return newest(df[~(dirty | unknown)])
+    kept = newest(df[~(dirty | unknown)])
+    case = "provenance.env.HPCGI_CASE"
+    if case in df and "provenance.utc" in df:
+        first = kept.groupby(case)["provenance.utc"].min() if len(kept) else pd.Series(dtype=object)
+        since = df[case].map(first)
+        live = since.isna() | (df["provenance.utc"] >= since.fillna(""))
+    else:
+        live = pd.Series(True, index=df.index)
+    for why, mask in (("dirty", dirty), ("unknown_commit", unknown)):
+        for f, n in df[mask & live].groupby("file").size().items():
+            COUNTS[f][why] = int(n)
+    return kept
 
 
 def machine_state(df):
