@@ -42,15 +42,18 @@ def table42(j_iter, b_iter, j_per, b_per, n=7):
 
 
 def test_bicgstab_is_decided_part_by_part(monkeypatch):
-    # ours: 62 and 12 iterations, a BiCG-STAB iteration 2.1 times a Jacobi one (the report: 36 and 17, 2.25)
-    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(62, 12, 0.01, 0.021))
+    # ours: 62 and 12 iterations, a BiCG-STAB iteration 2.3 times a Jacobi one (the report: 36 and 17, 2.25)
+    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(62, 12, 0.01, 0.023))
     cost, iters, time = claims.bicgstab("quick")
-    assert cost["verdict"] == "confirmed" and 2.0 < cost["ratio"] < 2.2 and "ours 2.0" in cost["numbers"] and "the report's 2.25" in cost["numbers"]
+    assert cost["verdict"] == "confirmed" and 2.2 < cost["ratio"] < 2.4 and "ours 2.2" in cost["numbers"] and "the report's 2.25" in cost["numbers"]
     assert iters["verdict"] == "not reproduced"
     assert "Jacobi 62 against the report's 36" in iters["numbers"] and "BiCG-STAB 12 against 17" in iters["numbers"]
     assert time["verdict"] == "not reproduced" and "the rule on our own runs: refuted" in time["numbers"]
     assert "the report's ordering" in time["numbers"] and "not the report's" not in time["numbers"]
     # with the report's counts the parts follow the rule alone
-    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(36, 17, 0.01, 0.021))
+    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(36, 17, 0.01, 0.023))
     cost, iters, time = claims.bicgstab("quick")
     assert iters["verdict"] == "confirmed" and time["verdict"] == "confirmed"
+    # a cost per iteration below 36/17 does not give the report's ordering even with its counts: said so
+    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(62, 12, 0.01, 0.020))
+    assert "not the report's ordering either" in claims.bicgstab("quick")[2]["numbers"]
