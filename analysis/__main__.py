@@ -9,7 +9,7 @@ The machine is --machine, else $MACHINE, else this machine's own label (common/m
 import argparse
 import sys
 
-from analysis import accuracy, figure42, machines, mpi_radiosity, protocol, radiosity_tables, records, relight, \
+from analysis import accuracy, consistency, figure42, machines, mpi_radiosity, protocol, radiosity_tables, records, relight, \
     report, table41, table42_audit
 
 
@@ -32,6 +32,7 @@ def main():
         print(f"analysis: {e}", file=sys.stderr)
         return 2
     if a.command == "tables":
+        consistency.reset()
         if not records.machine_dir().is_dir():
             known = ", ".join(records.machines()) or "none"
             print(f"analysis: no records of machine {label} in {records.RESULTS} (machines with records: {known}); "
@@ -40,6 +41,7 @@ def main():
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset), "table42_audit": table42_audit.write(a.preset)}
         made.update(relight.write_all(a.preset))
+        consistency.save(a.preset)
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
         if records.INVALID:  # reported where read; the tables were made without them
@@ -47,7 +49,17 @@ def main():
             print(f"analysis: {len(files)} record(s) did not validate against common/record.schema.json and were left "
                   f"out: {', '.join(files)}", file=sys.stderr)
             return 1
+        try:
+            consistency.check(consistency.load(a.preset))
+        except consistency.Disagreement as e:
+            print(f"analysis: {e}", file=sys.stderr)
+            return 1
         return 0
+    try:
+        consistency.check(consistency.load(a.preset))
+    except consistency.Disagreement as e:
+        print(f"analysis: no report written: {e}", file=sys.stderr)
+        return 1
     print(f"analysis: wrote {report.write(a.preset)}")
     print(f"analysis: wrote {machines.write(a.preset)}")
     return 0

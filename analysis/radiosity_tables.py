@@ -7,7 +7,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.escape import md, md_table  # noqa: E402
-from analysis import protocol, settings  # noqa: E402
+from analysis import consistency, protocol, settings  # noqa: E402
 from analysis.records import (cell, load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
                               skipped, summarise, tables_dir, value, writing)
 
@@ -141,6 +141,9 @@ def build_table42(preset):
     t = summarise(df, ["scene_id", "params.patches", "params.method"], "time_s")
     it = df.groupby(["scene_id", "params.method"])["result.iterations"].median().rename("iter").reset_index()
     t = t.merge(it, on=["scene_id", "params.method"])
+    for (sid, m), g in df.groupby(["scene_id", "params.method"]):
+        consistency.quote(f"scene {int(sid)}: {'Jacobi' if m == 'jacobi' else m} solve to 1e-6, run time (setup + "
+                          "solve, s)", f"Table 4.2 ({preset}), scene {int(sid)}, ours {m} s", g["time_s"], g)
     paper = paper_table("table42")
     rows = []
     for s in sorted(set(t["scene_id"]) | set(paper["scene"])):
@@ -198,6 +201,9 @@ def build_aos_soa(name, preset, layout, columns, extra=()):
     if df.empty:
         return None
     s = summarise(df, ["scene_id", "column"], "time_s").rename(columns={"scene_id": "scene"})
+    for sid, g in df[df["column"] == "openmp"].groupby("scene_id"):
+        consistency.quote(f"scene {int(sid)}: Jacobi solve to 1e-6, run time (setup + solve, s)",
+                          f"Table {name[-2]}.{name[-1]} ({preset}), scene {int(sid)}, ours openmp", g["time_s"], g)
     table = compare(s, paper_table(name), "scene", columns)
     for c in extra:
         o = s[s["column"] == c].set_index("scene")
