@@ -37,7 +37,7 @@ def main():
             known = ", ".join(records.machines()) or "none"
             print(f"analysis: no records of machine {label} in {records.RESULTS} (machines with records: {known}); "
                   "tables are written for the machines' own records only", file=sys.stderr)
-        made = {"table41": table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
+        made = {**table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset), "table42_audit": table42_audit.write(a.preset)}
         made.update(relight.write_all(a.preset))
