@@ -9,34 +9,74 @@ import pandas as pd
 from analysis.escape import md
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
 from analysis import claims as claims_mod
-from analysis.records import load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, tables_dir
+from analysis import consistency, protocol
+from analysis.records import ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
+    tables_dir
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
                "mpi-radiosity", "mpi-large")
 
 
-def provenance(preset):
-    frames = [f.dropna(axis=1, how="all") for f in (load(e, preset) for e in EXPERIMENTS) if not f.empty]
-    df = pd.concat(frames, ignore_index=True) if frames else None
-    if df is None:
-        return ["No records yet: run `make reproduce PRESET=%s`." % preset], 0
-    lines = []
+def preset_experiments(preset):
+    """The experiments of a preset: slurm/cases/<preset>/*.txt (those of EXPERIMENTS where the preset has no list)."""
+    d = ROOT / "slurm" / "cases" / preset
+    names = sorted(f.stem for f in d.glob("*.txt")) if preset.isidentifier() and d.is_dir() else []
+    return names or list(EXPERIMENTS)
+
+
+def experiments(preset):
+    """Per experiment of the preset: its records in the files (every commit), those the tables use, those left out
+    and the cases skipped; and the frame of the used records of the report's tables, for the provenance."""
+    rows, used = [], []
+    for e in preset_experiments(preset):
+        every, df = load(e, preset, history=True), load(e, preset)
+        f = str(machine_dir() / e / f"{preset}.jsonl")
+        left = sum(protocol.COUNTS.get(f, {}).get(k, 0) for k in protocol.LEFT_OUT)
+        sk = skipped(e, preset)
+        why = "; ".join(f"{len(g)} skipped: {md(r)}" for r, g in sk.groupby("reason")) if len(sk) else ""
+        state = "ran" if len(df) else ("no records used: all left out" if len(every) else "did not run")
+        rows.append(f"| {md(e)} | {state} | {len(every)} | {len(df)} | {left} | {why} |")
+        if len(df) and e in EXPERIMENTS:
+            used.append(df.dropna(axis=1, how="all"))
+    table = ["| experiment | status | records in the file (every commit) | used (newest commit of each case) | "
+             "left out (dirty tree, unknown commit, disturbed) | cases not run |", "|---|---|---:|---:|---:|---|",
+             *rows]
+    return table, (pd.concat(used, ignore_index=True) if used else pd.DataFrame())
+
+
+def how_to_read(preset, df, differ):
+    """The section that says what the report is made of: records, machine, state, protocol, commit, exclusions."""
+    out = ["## How to read this report", "",
+           "- **A record** is one run's line in `results/<machine>/<experiment>/<preset>.jsonl` (one JSON object: "
+           "what ran, what came out, its times, its provenance). Every count of records in this report is of such "
+           "lines; \"used\" means used by the tables after the exclusions below.",
+           f"- **The machine**: {md(machine())}. "
+           + ("This is the reference machine." if reference() == machine() else
+              f"The reference machine, beside which its numbers are set: {md(reference() or 'none')}."),
+           "- **The protocol** (docs: Hoefler and Belli, SC15; DESIGN.md \"Measurement protocol\"): records from a "
+           "working tree with uncommitted changes or from a commit not in this repository are left out; a run the "
+           "runner flagged as disturbed (load, bandwidth probe) is left out of the medians; every timing is the "
+           "median with the bootstrap 95% interval of the median and n, and a group whose interval is not within "
+           "+-5% of its median (or that stopped at its cap) is marked capped; claims are decided by the rule in "
+           "\"Claims of the report\". Runs that are no answer (exit status 3, 4, 5) are left out and named "
+           "under their table."]
+    if df.empty:
+        return out + ["- No records used: run `make reproduce PRESET=" + md(preset) + "`.", ""]
     for col, what in (("provenance.host", "host"), ("provenance.cpu_model", "CPU"), ("provenance.cpus_online", "CPUs"),
-                      ("provenance.compiler", "compiler"), ("provenance.git_commit", "git commit"),
+                      ("provenance.compiler", "compiler"), ("provenance.git_commit", "commits of the records used"),
                       ("backend_info.gpu", "GPU"), ("backend_info.mpi_library", "MPI")):
         if col in df.columns:
             vals = sorted({str(v) for v in df[col].dropna()})
-            lines.append(f"- {what}: {md(', '.join(vals)) if vals else 'none'}")
+            out.append(f"- {what}: {md(', '.join(vals)) if vals else 'none'}")
     if "backend_info.gpu" not in df.columns:
-        lines.append("- GPU: none used (no GPU on this machine)")
+        out.append("- GPU: none used (no GPU records)")
     if "provenance.loadavg_1min" in df.columns:
-        busy = (df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum()
-        lines.append(f"- machine load: {busy} of {len(df)} records were taken while the 1-minute load average exceeded "
-                     "the core count (other work was running: their times are upper bounds)")
-    dirty = df["provenance.git_dirty"].astype(bool).sum() if "provenance.git_dirty" in df.columns else 0
-    lines.append(f"- records: {len(df)} ({dirty} from a working tree with uncommitted changes), "
-                 f"UTC {df['provenance.utc'].min()} to {df['provenance.utc'].max()}")
-    return lines, len(df)
+        busy = int((df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum())
+        out.append(f"- the machine's state: {busy} of the {len(df)} records used by the report's tables were "
+                   "taken while the 1-minute load average exceeded the core count (their times are upper bounds); "
+                   f"UTC {md(df['provenance.utc'].min())} to {md(df['provenance.utc'].max())}")
+    out += [f"- the same quantity quoted with different settings, or too few runs to check: {md(d)}" for d in differ]
+    return out + [""]
 
 
 def include(name, preset):
@@ -47,22 +87,6 @@ def include(name, preset):
 def image(name, preset, alt):
     f = plots_dir() / f"{name}_{preset}.png"
     return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records yet)\n"
-
-
-def not_run(preset):
-    """What the runner skipped on this machine, per experiment and reason (no GPU, no RRV scenes)."""
-    rows = []
-    for f in sorted(machine_dir().glob(f"*/{preset}.skipped")):
-        s = skipped(f.parent.name, preset)
-        for reason, g in (s.groupby("reason") if len(s) else ()):
-            rows.append(f"| {md(f.parent.name)} | {len(g)} | {md(reason)} |")
-    if not rows:
-        return ["Every case of this preset ran on this machine."]
-    out = ["| experiment | cases skipped | why |", "|---|---|---|", *rows, ""]
-    if any("no RRV scenes" in r for r in rows):
-        out.append("The experiments with \"no RRV scenes\" lack scenes 3 and 4 (RRV's room3.xml and room2.xml): "
-                   "`make scenes` fetches them, then `make resume` runs what is missing.")
-    return out
 
 
 RULE = ("Each claim is decided part by part on this machine's records by one rule: the bootstrap 95% interval of "
@@ -99,7 +123,8 @@ def claim_rows(preset):
 
 
 def write(preset):
-    prov, n = provenance(preset)
+    ex_table, used = experiments(preset)
+    differ = consistency.check(consistency.load(preset))
     ref = reference()
     if ref == machine():
         whose = f"This is the reference machine ({md(ref)}), which every other machine's report is set beside."
@@ -115,8 +140,8 @@ def write(preset):
            f"(made by `make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from "
            "`results/paper/`. Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core "
            "Intel E5-2650v2 and an NVIDIA K20), so ratios of times compare machines as much as codes. " + whose, "",
-           "## Machine and provenance", "", *prov, "",
-           "## Cases not run on this machine", "", *not_run(preset), "",
+           *how_to_read(preset, used, differ),
+           f"## Experiments of this preset ({md(preset)})", "", *ex_table, "",
            "## Claims of the report", "", *claims(preset)]
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
             include("table41_mg", preset),
