@@ -7,6 +7,7 @@ radiosity/solve/methods/stop_rule.cpp does, and the tables check that each run's
 import math
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -251,7 +252,9 @@ def plot(preset, df, counts):
             x = g[g["method"] == m]
             if len(x):
                 h = x["history"].iloc[0]
-                ax.semilogy(h["iteration"], rule_values(h, DEFAULT_RULE), style, label=m)
+                th = int(x["threads"].iloc[0]) if pd.notna(x["threads"].iloc[0]) else None
+                ax.semilogy(h["iteration"], rule_values(h, DEFAULT_RULE), style,
+                            label=f"{m} ({th} thread{'s' if th != 1 else ''})" if th else m)
         ax.axhline(TOL, color="grey", lw=0.8)
         if s in counts:
             for n, m, c in ((counts[s][0], "report Jacobi", "C0"), (counts[s][1], "report BiCG-STAB", "C2")):
@@ -259,9 +262,11 @@ def plot(preset, df, counts):
                 ax.text(n, 1e-9, f" {m}: {n}", color=c, rotation=90, va="bottom")
         ax.set_title(f"{SCENE_NAMES[s]}, {w} weights, start rrv (double)")
         ax.set_xlabel("iteration (BiCG-STAB: full iterations, 2 products each)")
+        ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(base=10, numticks=30))
         ax.grid(True, which="both", alpha=0.3)
     axes[0][0].set_ylabel("||e - A b|| / ||e|| (largest channel)")
-    axes[0][0].legend()
+    for ax in axes[0]:
+        ax.legend(fontsize=8)
     fig.tight_layout()
     out = plots_dir() / f"table42_audit_{preset}.png"
     fig.savefig(out, dpi=110)
