@@ -171,7 +171,8 @@ def threads_note(df):
     note = df.attrs.get("no_answer", "")
     parts = [f"Ours: median [95% interval of the median] n=runs, on {md(', '.join(map(str, hosts)))} with "
              f"{', '.join(map(str, th))} OpenMP thread(s); capped: the interval is not within +-5% of the median (or "
-             "the runner stopped at its cap).", storage_note(df), note, protocol.note(df["file"])]
+             "the runner stopped at its cap).", storage_note(df), note,
+             protocol.note(df["file"] if "file" in df else [])]
     return " ".join(p for p in parts if p)
 
 
