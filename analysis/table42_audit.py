@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.radiosity_tables import run_time, write as write_table  # noqa: E402
-from analysis.records import load, paper_table, plots_dir, tables_dir  # noqa: E402
+from analysis.records import cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
 
 EXPERIMENT = "table42-audit"
 TOL = 1e-6
@@ -212,7 +212,7 @@ def gauss_seidel_table(df):
 
 def table42_with_gs(preset):
     """Table 4.2's scenes: OpenMP Jacobi, BiCG-STAB, Gauss-Seidel and SOR (one thread) (iterations, run time: median
-    of repeats), the fastest and its ratio to the report's OpenMP Jacobi time."""
+    [95% interval] n), the fastest and its ratio to the report's OpenMP Jacobi time."""
     from analysis.radiosity_tables import solves
     df = solves("table42", preset)
     if df.empty:
@@ -226,7 +226,8 @@ def table42_with_gs(preset):
             x = g[g["params.method"] == m]
             if len(x):
                 row[f"{m} iter"] = x["result.iterations"].median()
-                row[f"{m} s"] = times[m] = x["time_s"].median()
+                sm = summarise(x, ["params.method"], "time_s").iloc[0]
+                row[f"{m} s"], times[m] = cell(sm), sm["median"]
         if times:
             best = min(times, key=times.get)
             row["fastest"] = best
@@ -344,7 +345,7 @@ def write(preset):
     t = table42_with_gs(preset)
     if not t.empty:
         write_table("table42_gs", preset, "Table 4.2 with Gauss-Seidel (OpenMP, AOS, 1e-6; run time: setup + solve)",
-                    t, ["Times are medians of repeats on this machine; the report's on one maya node. sor: omega "
+                    t, ["Times: median [95% interval of the median] n=runs on this machine; the report's on one maya node. sor: omega "
                         "1.4 on one thread (case list table42)."])
     df = runs(preset)
     if df.empty:
@@ -380,7 +381,7 @@ def fastest_lines(preset):
     if t.empty or "fastest" not in t.columns:
         return []
     return [f"- Scene {int(r['scene'])} ({int(r['patches'])} patches): the fastest CPU method is {r['fastest']}, "
-            f"{r[r['fastest'] + ' s']:.4g} s, {r['fastest / report Jacobi']:.3g} times the report's OpenMP Jacobi "
+            f"run time {r[r['fastest'] + ' s']} (seconds: median [95% interval] n), {r['fastest / report Jacobi']:.3g} times the report's OpenMP Jacobi "
             f"({r['report Jacobi s']:g} s)." for _, r in t.iterrows() if isinstance(r["fastest"], str)
             and not pd.isna(r.get("fastest / report Jacobi"))]
 
