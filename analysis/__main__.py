@@ -1,11 +1,15 @@
-"""python -m analysis tables|report PRESET [--machine LABEL]
+"""python -m analysis tables|report PRESET [--machine LABEL] [--all-records]
 
   tables  every table (results/<machine>/tables/*.csv, *.md) and plot (results/<machine>/plots/*.png) from the
           machine's records of PRESET, beside the report's numbers and the reference machine's
   report  the reproduced report, report/<machine>/REPORT-<preset>.md (run `tables` first; make report does), and
           report/MACHINES.md, every machine with records side by side
 
-The machine is --machine, else $MACHINE, else this machine's own label (common/machine_label.py)."""
+The machine is --machine, else $MACHINE, else this machine's own label (common/machine_label.py). Records from a
+dirty tree or from a commit not in this repository are left out, and counted under each table (--all-records keeps
+them, for a developer's look). Exit 1 when a record does not validate, or when one quantity quoted by two tables
+under the same settings disagrees beyond their intervals (analysis/consistency.py: both places are named, and
+`report` then writes nothing)."""
 import argparse
 import sys
 

@@ -13,6 +13,7 @@ may use, and how tight each timed group is.
 Every record left out, and every one without machine state, is counted per records file (COUNTS), and
 `note(files)` says so in one sentence under each table."""
 import json
+import os
 import subprocess
 from collections import Counter, defaultdict
 from pathlib import Path
@@ -27,13 +28,15 @@ WHY = {"dirty": "from a working tree with uncommitted changes", "unknown_commit"
 LEFT_OUT = ("dirty", "unknown_commit", "disturbed")
 
 COUNTS = defaultdict(Counter)  # records file -> Counter of WHY's keys
-_settings = {"all": False}
+# ANALYSIS_ALL_RECORDS=1 is --all-records for a whole process tree (the tests that make records from the working
+# tree, clean or not, and check that tables get written from them).
+_settings = {"all": os.environ.get("ANALYSIS_ALL_RECORDS") == "1"}
 _commits = {}
 
 
 def include_all(on=True):
     """Keep records from dirty trees and unknown commits (for a developer's look, never for results/)."""
-    _settings["all"] = bool(on)
+    _settings["all"] = bool(on) or os.environ.get("ANALYSIS_ALL_RECORDS") == "1"
 
 
 def known(commits):
