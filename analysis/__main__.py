@@ -48,6 +48,9 @@ def main():
         consistency.save(a.preset)
         for name, out in made.items():
             print(f"analysis: {name} ({a.preset}, {label}): {'no records' if out is None else 'written'}")
+            if out is None:  # a table of earlier records never stands in for one that has none now
+                for f in (records.tables_dir() / f"{name}_{a.preset}.md", records.tables_dir() / f"{name}_{a.preset}.csv"):
+                    f.unlink(missing_ok=True)
         if records.INVALID:  # reported where read; the tables were made without them
             files = sorted({f"{f}:{n}" for f, n, _ in records.INVALID})
             print(f"analysis: {len(files)} record(s) did not validate against common/record.schema.json and were left "

@@ -19,7 +19,7 @@ import pandas as pd  # noqa: E402
 
 from analysis.escape import md  # noqa: E402
 from analysis.radiosity_tables import write  # noqa: E402
-from analysis.records import load, plots_dir  # noqa: E402
+from analysis.records import NONE_USED, load, plots_dir  # noqa: E402
 
 SOLVER_SWEEPS = ("accuracy-tolerance", "accuracy-precision", "accuracy-threshold")
 FF_SWEEPS = ("accuracy-hemicube", "accuracy-mesh")
@@ -267,7 +267,7 @@ def extreme_outcomes(preset):
     """The extremes' outcomes in words, from the records."""
     df = load("extremes", preset)
     if df.empty:
-        return ["No extremes records yet."]
+        return [f"No extremes records used for this preset ({NONE_USED})."]
     lines = []
     rad = df[df["app"] == "radiosity"]
     box = rad[rad["params.scene"].str.contains("box_rho") & (rad["params.method"] == "jacobi")]

@@ -93,6 +93,9 @@ def report_dir():
 SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
 
 
+# What a table or section says where it has no records to use.
+NONE_USED = 'none recorded, or all left out: see "Experiments of this preset"'
+
 # (file, line, what) of every record that did not validate since the program started: left out, and reported.
 INVALID = []
 

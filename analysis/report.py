@@ -10,7 +10,7 @@ from analysis.escape import md
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
 from analysis import claims as claims_mod
 from analysis import consistency, protocol
-from analysis.records import ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
+from analysis.records import NONE_USED, ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
     tables_dir
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
@@ -81,12 +81,12 @@ def how_to_read(preset, df, differ):
 
 def include(name, preset):
     f = tables_dir() / f"{name}_{preset}.md"
-    return f.read_text() if f.exists() else f"### {name}\n\nNo records for this preset yet.\n"
+    return f.read_text() if f.exists() else f"### {name}\n\nNo records used for this preset ({NONE_USED}).\n"
 
 
 def image(name, preset, alt):
     f = plots_dir() / f"{name}_{preset}.png"
-    return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records yet)\n"
+    return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records used)\n"
 
 
 RULE = ("Each claim is decided part by part on this machine's records by one rule: the bootstrap 95% interval of "

@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.radiosity_tables import run_time, write as write_table  # noqa: E402
-from analysis.records import cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
+from analysis.records import NONE_USED, cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
 
 EXPERIMENT = "table42-audit"
 TOL = 1e-6
@@ -397,7 +397,7 @@ def report_section(preset, include, image):
            "rrv`: max(radiosity, emission), or zero). Every run below recorded its residual history "
            "(`--history`); case list `table42-audit`.", ""]
     if df.empty:
-        return out + ["No table42-audit records for this preset yet (`slurm/run-local formfactors "
+        return out + [f"No table42-audit records used for this preset ({NONE_USED}; to run them: `slurm/run-local formfactors "
                       "table42-audit-formfactors table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
     counts = report_counts()
     out += ["### Verdict", "", *verdict(df, counts), "",
