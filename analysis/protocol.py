@@ -147,6 +147,9 @@ def note(files):
         total.update(COUNTS.get(f, {}))
     parts = [f"{total[k]} {WHY[k]}" for k in LEFT_OUT if total[k]]
     text = f"Left out of the medians: {'; '.join(parts)}." if parts else "No record left out."
+    if _settings["all"]:
+        text = ("Records from dirty trees and unknown commits kept (--all-records: a developer's look, not results). "
+                + text)
     if total["no_state"]:
         text += f" Of those used, {total['no_state']} {WHY['no_state']}."
     return text
