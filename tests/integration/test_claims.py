@@ -57,3 +57,17 @@ def test_bicgstab_is_decided_part_by_part(monkeypatch):
     # a cost per iteration below 36/17 does not give the report's ordering even with its counts: said so
     monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: table42(62, 12, 0.01, 0.020))
     assert "not the report's ordering either" in claims.bicgstab("quick")[2]["numbers"]
+
+
+def test_gpu_claims_are_not_run_without_gpu_records_and_decided_with_them(monkeypatch):
+    empty = pd.DataFrame(columns=["scene_id", "column", "time_s", "params.backend", "params.n", "params.distribution"])
+    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: empty)
+    monkeypatch.setattr(claims.table41, "ours", lambda p: (empty, empty))
+    rows = claims.gpu_claims("quick")
+    assert len(rows) == 4 and all(r["verdict"] == "not run" and "would be decided by" in r["numbers"] for r in rows)
+    t43 = pd.DataFrame([{"scene_id": 1, "column": c, "time_s": t, "params.backend": c}
+                        for c, base in (("cuda", 0.006), ("openmp", 0.009)) for t in runs(base, 0.02, seed=len(c))])
+    monkeypatch.setattr(claims.radiosity_tables, "solves", lambda e, p: t43 if e == "table43" else empty)
+    first = claims.gpu_claims("quick")[0]
+    assert first["verdict"] == "confirmed" and "scene 1: OpenMP time over CUDA" in first["part"]
+    assert "the report's 1.5" in first["numbers"]
