@@ -32,7 +32,7 @@ def fixture(tmp_path, monkeypatch, times):
     f = tmp_path / "m" / "table42" / "ci.jsonl"
     f.parent.mkdir(parents=True)
     monkeypatch.setattr(records, "RESULTS", tmp_path)
-    records.use("m")
+    monkeypatch.setitem(records._state, "machine", "m")  # restored after the test, as RESULTS is
     return f, lines
 
 
