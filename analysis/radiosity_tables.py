@@ -89,7 +89,7 @@ def beside(mine, ref, key, label):
     theirs = {settings.base(c): c for c in r.columns}
     for c in mine.columns:
         cols.append(c)
-        if c.startswith("ours ") and not c.endswith(" iter"):
+        if c.startswith("ours "):
             what = settings.base(c)[len("ours "):]
             rc = theirs.get(settings.base(c))
             mine[f"{label} {what}"] = mine[key].map(r[rc]) if rc else np.nan
