@@ -1,9 +1,8 @@
-"""Strings from files (record fields, machine.json, folder names) put into markdown or HTML as text, never as markup
-(issue 33). `md` for markdown: HTML's & < > become entities and every other character markdown gives a meaning to
-(emphasis, code, links, images, headings, table cells, strikethrough, backslash) is escaped with a backslash;
-a line break becomes a space, so a value never starts a line of its own (a heading, a list) nor ends a table row.
-`html` for HTML. `md_table` writes a frame as a markdown table with every cell and header escaped."""
-import html as _html
+"""Strings from files (record fields, machine.json, folder names) put into markdown as text, never as markup (issue
+33): `md` turns HTML's & < > into entities and escapes with a backslash every other character markdown gives a
+meaning to inside a line (emphasis, code, links, images, headings, table cells, strikethrough, backslash); a line
+break becomes a space, so a value never starts a line of its own (a heading, a list) nor ends a table row.
+`md_table` writes a frame as a markdown table with every cell and header escaped. (The analysis writes no HTML.)"""
 import math
 
 # CommonMark lets a backslash escape any ASCII punctuation; these are the ones that start markup inside a line
@@ -25,11 +24,6 @@ def md(value):
         else:
             out.append(ch)
     return "".join(out)
-
-
-def html(value):
-    """`value` as HTML text (quotes too, for attributes)."""
-    return _html.escape(str(value), quote=True)
 
 
 def _cell(v, floatfmt):
