@@ -23,10 +23,12 @@ def settings_of(df):
     out = {}
     for k in SETTINGS:
         if k in df:
-            vals = sorted({str(v) for v in df[k].dropna()})
+            vals = sorted({f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+                           for v in df[k].dropna()})
             out[k] = ", ".join(vals) if vals else "default"
-    if "params.storage" in df and out.get("params.storage") == "default":
-        out["params.storage"] = "dense"
+    for k, before in (("params.storage", "dense"), ("params.ff_precision", "float32")):  # records from before them
+        if out.get(k, "default") == "default" and ("params.backend" in df or "params.scene" in df):
+            out[k] = before
     return out
 
 
@@ -48,16 +50,21 @@ def reset():
     _quotes.clear()
 
 
-def save(preset):
+def save(preset, kind="quotes"):
+    """tables/<kind>_<preset>.json: `tables` writes quotes_, `python -m analysis.bench` (make bench) bench_quotes_."""
     tables_dir().mkdir(parents=True, exist_ok=True)
-    path = tables_dir() / f"quotes_{preset}.json"
+    path = tables_dir() / f"{kind}_{preset}.json"
     path.write_text(json.dumps(_quotes, indent=1, sort_keys=True) + "\n")
     return path
 
 
 def load(preset):
-    path = tables_dir() / f"quotes_{preset}.json"
-    return json.loads(path.read_text()) if path.exists() else []
+    """Every quote saved for this preset: the tables' and make bench's."""
+    out = []
+    for kind in ("quotes", "bench_quotes"):
+        path = tables_dir() / f"{kind}_{preset}.json"
+        out += json.loads(path.read_text()) if path.exists() else []
+    return out
 
 
 def check(quotes):
