@@ -68,10 +68,10 @@ def load(preset):
 
 
 def check(quotes):
-    """Raises Disagreement naming both places for the first pair of quotes of one quantity under the same settings
-    whose intervals do not overlap; returns the pairs whose settings differ (to be stated) or that have fewer than 3
+    """Raises Disagreement naming both places of every pair of quotes of one quantity under the same settings whose
+    intervals do not overlap; returns the pairs whose settings differ (to be stated) or that have fewer than 3
     runs (not checked), as text."""
-    differ = []
+    differ, wrong = [], []
     for i, a in enumerate(quotes):
         for b in quotes[i + 1:]:
             if a["quantity"] != b["quantity"]:
@@ -87,9 +87,10 @@ def check(quotes):
                 differ.append(f"{a['quantity']}: {a['where']} and {b['where']} not checked (fewer than 3 runs)")
                 continue
             if a["high"] < b["low"] or b["high"] < a["low"]:
-                raise Disagreement(
-                    f"{a['quantity']} is {fmt(a)} in {a['where']} but {fmt(b)} in {b['where']}, under the same "
-                    "settings: one quantity, two numbers")
+                wrong.append(f"{a['quantity']} is {fmt(a)} in {a['where']} but {fmt(b)} in {b['where']}, under "
+                             "the same settings: one quantity, two numbers")
+    if wrong:
+        raise Disagreement(f"{len(wrong)} disagreement(s): " + "; ".join(wrong))
     return differ
 
 
