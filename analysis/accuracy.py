@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis import protocol  # noqa: E402
+from analysis import protocol, settings  # noqa: E402
 from analysis.escape import md  # noqa: E402
 from analysis.radiosity_tables import write  # noqa: E402
 from analysis.records import NONE_USED, load, plots_dir  # noqa: E402
@@ -233,7 +233,7 @@ def extremes(preset):
                      "true residual": r.get("result.true_rel_residual"), "max |u - u_h|": r.get("result.error_inf"),
                      "time (s)": r["times_s.solve"]})
     table = pd.DataFrame(rows)
-    return write("extremes", preset, f"Extremes ({preset})", table, [protocol.note(df["file"]),
+    return write("extremes", preset, f"Extremes ({preset})", table, [settings.line(df, preset), protocol.note(df["file"]),
         "Closed boxes: 192 patches, hemicube R = 256, whose rows sum to s within about 1e-5 of 1, so the exact answer "
         "of their F is E/(1 - rho s), and E/(1 - rho) is off by about rho (s - 1)/(1 - rho). Poisson: CG to 1e-6, "
         "error against the exact solution u = sin^2(pi x) sin^2(pi y). outcome: \"answer\" for exit status 0, else "

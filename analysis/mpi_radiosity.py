@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis import protocol  # noqa: E402
+from analysis import protocol, settings  # noqa: E402
 from analysis.escape import md, md_table  # noqa: E402
 from analysis.records import load, plots_dir, tables_dir  # noqa: E402
 
@@ -201,7 +201,7 @@ def write_table(preset):
         plot(ff, sv, preset)
     hosts = sorted(set(pd.concat([ff, sv])["provenance.host"]))
     files = pd.concat([ff, sv])["file"] if "file" in pd.concat([ff, sv]) else []
-    notes = growth_notes(ff, sv) + [protocol.note(files),
+    notes = growth_notes(ff, sv) + [settings.line(pd.concat([ff, sv]), preset), protocol.note(files),
         f"Records from {md(', '.join(map(str, hosts)))}; P ranks with one OpenMP thread each. Where P exceeds the cores "
         "(provenance.cpus_online), ranks share cores: times past that count measure oversubscription; the memory "
         "per rank does not depend on it."]

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis import consistency, protocol  # noqa: E402
+from analysis import consistency, protocol, settings  # noqa: E402
 from analysis.radiosity_tables import run_time, write  # noqa: E402
 from analysis.records import cell, load, plots_dir, summarise, value, writing  # noqa: E402
 
@@ -88,7 +88,7 @@ def scenes_table(preset):
              "times 0.9, then back) started from the previous frame's B, over the same solve started cold, to 1e-4. "
              "f16: Jacobi with F in float16 to 1e-3 under a 50 ms budget; within budget: the solved frames that "
              "converged within it (a frame stopped by the budget is not). Times are this machine's, under whatever else ran on it."]
-    return write("relight", preset, f"Relighting ({preset})", t, [*notes, protocol.note(df["file"])])
+    return write("relight", preset, f"Relighting ({preset})", t, [*notes, settings.line(df, preset), protocol.note(df["file"])])
 
 
 def bench_table(preset):
