@@ -9,6 +9,8 @@ import sys
 
 import pandas as pd
 
+from analysis import consistency
+from analysis.escape import md, md_table
 from analysis.records import load, tables_dir
 
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
@@ -58,6 +60,9 @@ def sparse_rows(preset, host, stream):
             over = float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], read)])
                          .median())
             per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()))
+            consistency.quote(f"{scene}: one Jacobi step, OpenMP, float (ms)",
+                              f"make bench ({preset}), sparse table, {scene} {storage} {values}",
+                              1e3 * r["times_s.per_iteration"], r)
             out.append({"problem": f"Jacobi step, {scene}, {int(r['params.patches'].iloc[0])} patches" if k == 0
                         else "", "storage": f"{storage} {values}", "MB of F per step": nbytes / 1e6,
                         # the row starts left out (runs: two arrays of them)
@@ -141,6 +146,11 @@ def rows(preset):
         nbytes = float(mine["perf.matrix_bytes"].iloc[0]) if len(mine) else 4.0 * n * n
         entries = [(f"openmp float {l.upper()}, one pass over F", mine[mine["params.layout"] == l], nbytes, True)
                    for l in ("aos", "soa")]
+        for l in ("aos", "soa"):
+            x = mine[mine["params.layout"] == l]
+            consistency.quote("room3.xml: one Jacobi step, OpenMP, float (ms)",
+                              f"make bench ({preset}), Jacobi step, openmp float {l.upper()}",
+                              1e3 * x["times_s.per_iteration"], x)
         entries += [("NumPy F @ B (sgemm, 3 columns)", peer[peer["params.way"] == "gemm"], 4.0 * n * n, False),
                     ("NumPy 3 x F @ b (sgemv)", peer[peer["params.way"] == "gemv"], 3 * 4.0 * n * n, False)]
         # The issue's bound is 4N² bytes (all of F); the solver skips the rows of patches with reflectivity 0, so it
@@ -268,11 +278,11 @@ def mg_rows(preset, host):
 
 def markdown(rows, floatfmt):
     """rows (dicts) as a Markdown table, empty cells where a row has no value (not "nan")."""
-    df = pd.DataFrame(rows)
-    return df.astype(object).where(df.notna(), None).to_markdown(index=False, floatfmt=floatfmt, missingval="")
+    return md_table(pd.DataFrame(rows), floatfmt)
 
 
 def write(preset):
+    consistency.reset()
     made = rows(preset)
     if made is None:
         return None
@@ -280,7 +290,7 @@ def write(preset):
     mg_out, mg_targets = mg_rows(preset, host)
     sp_out, sp_targets = sparse_rows(preset, host, _on(load("bench-stream", preset), host))
     table = markdown(out, ".3g")
-    head = (f"CPU timings (host wall clock) on {host} ({cpu}), {threads} threads, OMP_PROC_BIND=close, medians over "
+    head = (f"CPU timings (host wall clock) on {md(host)} ({md(cpu)}), {threads} threads, OMP_PROC_BIND=close, medians over "
             f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "
             f"triad next to it: the STREAM triad bandwidth measured just before and just after the case (median); "
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "
@@ -304,6 +314,7 @@ def write(preset):
     tables_dir().mkdir(parents=True, exist_ok=True)
     path = tables_dir() / f"bench_{preset}.md"
     path.write_text(text)
+    consistency.save(preset, "bench_quotes")
     return text, path
 
 
@@ -315,6 +326,11 @@ def main():
         return 1
     text, path = made
     print(text + f"\nbench: wrote {path}")
+    try:
+        consistency.check(consistency.load(preset))
+    except consistency.Disagreement as e:
+        print(f"bench: {e}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -13,6 +13,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from analysis import protocol, settings  # noqa: E402
+from analysis.escape import md, md_table  # noqa: E402
 from analysis.records import load, plots_dir, tables_dir  # noqa: E402
 
 MIB = 2.0 ** 20
@@ -189,17 +191,18 @@ def write_table(preset):
         t = formfactor_table(ff)
         frames.append(t.assign(command="formfactors"))
         out += ["Form factors (`mpirun -np P bin/radiosity formfactors`): hemicube time of the slowest rank, F and "
-                "peak resident memory of the largest rank.", "", t.to_markdown(index=False, floatfmt=".4g"), ""]
+                "peak resident memory of the largest rank.", "", md_table(t), ""]
     if not sv.empty:
         t = solve_table(sv)
         frames.append(t.assign(command="solve"))
         out += ["Solves to 1e-6 (`--backend mpi`; \"one process\": openmp), float, AOS; received: the other ranks' "
                 "rows of every vector gathered, per iteration, on the rank that receives most.", "",
-                t.to_markdown(index=False, floatfmt=".4g"), ""]
+                md_table(t), ""]
         plot(ff, sv, preset)
     hosts = sorted(set(pd.concat([ff, sv])["provenance.host"]))
-    notes = growth_notes(ff, sv) + [
-        f"Records from {', '.join(hosts)}; P ranks with one OpenMP thread each. Where P exceeds the cores "
+    files = pd.concat([ff, sv])["file"] if "file" in pd.concat([ff, sv]) else []
+    notes = growth_notes(ff, sv) + [settings.line(pd.concat([ff, sv]), preset), protocol.note(files),
+        f"Records from {md(', '.join(map(str, hosts)))}; P ranks with one OpenMP thread each. Where P exceeds the cores "
         "(provenance.cpus_online), ranks share cores: times past that count measure oversubscription; the memory "
         "per rank does not depend on it."]
     out += [f"- {n}" for n in notes]

@@ -6,8 +6,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.records import (load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
-                              skipped, summarise, tables_dir, writing)
+from analysis.escape import md, md_table  # noqa: E402
+from analysis import consistency, protocol, settings  # noqa: E402
+from analysis.records import (cell, load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
+                              skipped, summarise, tables_dir, value, writing)
 
 
 def run_time(df):
@@ -47,7 +49,7 @@ def no_gpu_note(experiment, preset):
     s = skipped(experiment, preset)
     if s.empty:
         return ""
-    hosts = ", ".join(sorted(set(s["host"])))
+    hosts = md(", ".join(sorted(set(map(str, s["host"])))))
     notes = []
     if (s["reason"] == "no GPU on this machine").any():
         notes.append(f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them.")
@@ -67,7 +69,7 @@ def compare(ours, paper, key, columns):
             o = ours[(ours[key] == k) & (ours["column"] == c)] if not ours.empty else ours
             mine = o["median"].iloc[0] if len(o) else np.nan
             theirs = p[c].iloc[0] if len(p) and c in p.columns else np.nan
-            row[f"ours {c}"] = mine
+            row[f"ours {c}"] = cell(o.iloc[0]) if len(o) else "—"
             row[f"report {c}"] = theirs
             row[f"ratio {c}"] = mine / theirs if np.isfinite(mine) and np.isfinite(theirs) else np.nan
         rows.append(row)
@@ -75,7 +77,7 @@ def compare(ours, paper, key, columns):
 
 
 def markdown(title, table, notes):
-    body = table.to_markdown(index=False, floatfmt=".4g").replace(" nan ", " — ")
+    body = md_table(table)
     return "\n".join([f"### {title}", "", body, "", *[n for n in notes if n]]) + "\n"
 
 
@@ -84,12 +86,14 @@ def beside(mine, ref, key, label):
     "ours X", a column "<label> X" and "ours/<label> X" (the ratios to the report stay this machine's)."""
     cols = []
     r = ref.set_index(key)
+    theirs = {settings.base(c): c for c in r.columns}
     for c in mine.columns:
         cols.append(c)
         if c.startswith("ours "):
-            what = c[len("ours "):]
-            mine[f"{label} {what}"] = mine[key].map(r[c]) if c in r.columns else np.nan
-            mine[f"ours/{label} {what}"] = mine[c] / mine[f"{label} {what}"]
+            what = settings.base(c)[len("ours "):]
+            rc = theirs.get(settings.base(c))
+            mine[f"{label} {what}"] = mine[key].map(r[rc]) if rc else np.nan
+            mine[f"ours/{label} {what}"] = mine[c].map(value) / mine[f"{label} {what}"].map(value)
             cols += [f"{label} {what}", f"ours/{label} {what}"]
     return mine[cols]
 
@@ -106,12 +110,13 @@ def emit(name, preset, build, key):
     if ref and ref != machine():
         with on(ref):
             theirs = build(preset)
-        title += f", on {machine()} beside the reference machine {ref}"
+        title += f", on {md(machine())} beside the reference machine {md(ref)}"
         if theirs is None:
-            notes = [*notes, f"The reference machine {ref} has no records of this table."]
+            notes = [*notes, f"The reference machine {md(ref)} has no records of this table."]
         else:
             table = beside(table.copy(), theirs[1], key, "ref")
-            notes = [*notes, f"ours: this machine ({machine()}); ref: the reference machine {ref} (results/{ref}/), "
+            notes = [*notes, f"ours: this machine ({md(machine())}); ref: the reference machine {md(ref)} "
+                             f"(results/{md(ref)}/), "
                              "with its own records; ours/ref: this machine's time over the reference's."]
     return write(name, preset, title, table, notes, detail)
 
@@ -136,6 +141,9 @@ def build_table42(preset):
     t = summarise(df, ["scene_id", "params.patches", "params.method"], "time_s")
     it = df.groupby(["scene_id", "params.method"])["result.iterations"].median().rename("iter").reset_index()
     t = t.merge(it, on=["scene_id", "params.method"])
+    for (sid, m), g in df.groupby(["scene_id", "params.method"]):
+        consistency.quote(f"scene {int(sid)}: {'Jacobi' if m == 'jacobi' else m} solve to 1e-6, run time (setup + "
+                          "solve, s)", f"Table 4.2 ({preset}), scene {int(sid)}, ours {m} s", g["time_s"], g)
     paper = paper_table("table42")
     rows = []
     for s in sorted(set(t["scene_id"]) | set(paper["scene"])):
@@ -147,19 +155,24 @@ def build_table42(preset):
             o = mine[mine["params.method"] == m]
             row[f"ours {m} iter"] = o["iter"].iloc[0] if len(o) else np.nan
             row[f"report {m} iter"] = p[f"{m}_iter"].iloc[0] if len(p) else np.nan
-            row[f"ours {m} s"] = o["median"].iloc[0] if len(o) else np.nan
+            row[f"ours {m} s"] = cell(o.iloc[0]) if len(o) else "—"
             row[f"report {m} s"] = p[f"{m}_s"].iloc[0] if len(p) else np.nan
         rows.append(row)
-    return (f"Table 4.2 ({preset}): OpenMP Jacobi vs. BiCG-STAB to 1e-6 (run time in s)", pd.DataFrame(rows),
-            [threads_note(df), no_gpu_note("table42", preset)], t)
+    th = settings.threads_of(df.assign(column="openmp"), "openmp")
+    table = pd.DataFrame(rows).rename(columns=lambda c: c + th if c.startswith("ours ") and c.endswith(" s") else
+                                      c + " (16 threads)" if c.startswith("report ") and c.endswith(" s") else c)
+    return (f"Table 4.2 ({preset}): OpenMP Jacobi vs. BiCG-STAB to 1e-6 (run time in s)", table,
+            [settings.line(df, preset), threads_note(df), no_gpu_note("table42", preset)], t)
 
 
 def threads_note(df):
     th = sorted(set(df["params.threads"].dropna().astype(int)))
     hosts = sorted(set(df["provenance.host"]))
     note = df.attrs.get("no_answer", "")
-    parts = [f"Ours: median of repeats on {', '.join(hosts)} with {', '.join(map(str, th))} OpenMP thread(s).",
-             storage_note(df), note]
+    parts = [f"Ours: median [95% interval of the median] n=runs, on {md(', '.join(map(str, hosts)))} with "
+             f"{', '.join(map(str, th))} OpenMP thread(s); capped: the interval is not within +-5% of the median (or "
+             "the runner stopped at its cap).", storage_note(df), note,
+             protocol.note(df["file"] if "file" in df else [])]
     return " ".join(p for p in parts if p)
 
 
@@ -189,12 +202,17 @@ def build_aos_soa(name, preset, layout, columns, extra=()):
     if df.empty:
         return None
     s = summarise(df, ["scene_id", "column"], "time_s").rename(columns={"scene_id": "scene"})
+    for sid, g in df[df["column"] == "openmp"].groupby("scene_id"):
+        consistency.quote(f"scene {int(sid)}: Jacobi solve to 1e-6, run time (setup + solve, s)",
+                          f"Table {name[-2]}.{name[-1]} ({preset}), scene {int(sid)}, ours openmp", g["time_s"], g)
     table = compare(s, paper_table(name), "scene", columns)
     for c in extra:
-        o = s[s["column"] == c].set_index("scene")["median"]
-        table[f"ours {c}"] = table["scene"].map(o)
+        o = s[s["column"] == c].set_index("scene")
+        table[f"ours {c}"] = table["scene"].map(lambda k: cell(o.loc[k]) if k in o.index else "—")
+    table = table.rename(columns=lambda c: c + settings.threads_of(df, c[len("ours "):]) if c.startswith("ours ") else
+                         c + settings.report_suffix(c[len("report "):]) if c.startswith("report ") else c)
     title = f"Table {name[-2]}.{name[-1]} ({preset}): {layout} Jacobi to 1e-6, run time in s"
-    return title, table, [threads_note(df), no_gpu_note(name, preset),
+    return title, table, [settings.line(df, preset), threads_note(df), no_gpu_note(name, preset),
                           "Original: RRV's loop for the report's Jacobi iterations of that scene."], s
 
 
@@ -208,17 +226,21 @@ def build_table45(preset):
     note = no_gpu_note("table45", preset)
     s = summarise(df, ["params.distribution"], "time_s") if not df.empty else pd.DataFrame()
     table = paper.rename(columns={"runtime_s": "report s"})
-    table["ours s"] = table["distribution"].map(s.set_index("params.distribution")["median"]) if len(s) else np.nan
-    table["ratio"] = table["ours s"] / table["report s"]
+    by = s.set_index("params.distribution") if len(s) else None
+    table["ours s"] = table["distribution"].map(lambda d: cell(by.loc[d]) if by is not None and d in by.index else "—")
+    table["ratio"] = table["ours s"].map(value) / table["report s"]
     title = f"Table 4.5 ({preset}): hybrid CPU/GPU Jacobi, run time in s"
+    note = " ".join(n for n in (settings.line(df, preset, "the report's: scene 4 on 16 cores and a K20") if len(df)
+                                else "", note) if n)
     if not writing():
         return title, table, [note], s if len(s) else table
     plots_dir().mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     ax.plot(paper["distribution"], paper["runtime_s"], "x--", label="report (scene 4, K20 + 16 cores)")
     if len(s):
-        ax.errorbar(s["params.distribution"], s["median"], yerr=[s["median"] - s["min"], s["max"] - s["median"]],
-                    fmt="o-", label="ours")
+        ax.errorbar(s["params.distribution"], s["median"], yerr=[s["median"] - s["ci_low"].fillna(s["median"]),
+                    s["ci_high"].fillna(s["median"]) - s["median"]], fmt="o-", capsize=3,
+                    label="ours (median, 95% interval)")
     else:
         ax.text(0.5, 0.5, "ours: no GPU on this machine", transform=ax.transAxes, ha="center")
     ax.set_xlabel("distribution factor d (share of rows on the GPU)")

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from analysis import protocol
+from analysis.escape import md
 from analysis.record import validate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -91,6 +93,9 @@ def report_dir():
 SCENE_IDS = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
 
 
+# What a table or section says where it has no records to use.
+NONE_USED = 'none recorded, or all left out: see "Experiments of this preset"'
+
 # (file, line, what) of every record that did not validate since the program started: left out, and reported.
 INVALID = []
 
@@ -128,7 +133,8 @@ def newest(df):
 
 def load(experiment, preset=None, history=False):
     """The current machine's records of an experiment (one preset, or every preset) as one flat frame, columns like
-    'params.n': of each case those of its newest commit (see newest), or with history=True all."""
+    'params.n': of each case those of its newest commit (see newest), or with history=True all. Records from dirty
+    trees or unknown commits, and runs flagged as disturbed, are left out and counted (analysis/protocol.py)."""
     rows = []
     for f in sorted((machine_dir() / experiment).glob(f"{preset or '*'}.jsonl")):
         for rec in read_jsonl(f):
@@ -139,7 +145,9 @@ def load(experiment, preset=None, history=False):
         df["exit_status"] = df.apply(exit_status, axis=1).astype(int)
     if "params.scene" in df.columns:
         df["scene_id"] = df["params.scene"].map(lambda s: SCENE_IDS.get(Path(s).name) if isinstance(s, str) else None)
-    return df if history else newest(df)
+    if history:
+        return df
+    return protocol.machine_state(protocol.provenance_filter(df, newest))
 
 
 # The exit statuses of common/errors.hpp that a record can carry: every run but 0 is no answer.
@@ -174,7 +182,7 @@ def no_answer_note(df):
         what = ", ".join(sorted({" ".join(str(a) for a in r["argv"][1:] if a not in ("--quiet",))
                                  if isinstance(r.get("argv"), list) else str(r.get("provenance.env.HPCGI_CASE"))
                                  for _, r in g.head(3).iterrows()}))
-        parts.append(f"{len(g)} with exit status {int(code)} ({NO_ANSWER.get(int(code), 'unknown')}; e.g. {what})")
+        parts.append(f"{len(g)} with exit status {int(code)} ({NO_ANSWER.get(int(code), 'unknown')}; e.g. {md(what)})")
     return f"No answer, left out of the numbers above: {'; '.join(parts)}."
 
 
@@ -202,14 +210,38 @@ def median_ci(values, level=0.95, resamples=2000):
     return np.quantile(meds, (1 - level) / 2), np.quantile(meds, (1 + level) / 2)
 
 
-def summarise(df, keys, value, ci_from=5):
-    """Median of `value` over repeats per `keys`, with min, max, repeat count and, from `ci_from` repeats on, a 95%
-    bootstrap confidence interval of the median."""
+def summarise(df, keys, value, ci_from=3):
+    """Median of `value` over repeats per `keys`, with min, max, repeat count, from `ci_from` repeats on a 95%
+    bootstrap confidence interval of the median, and `capped` (analysis/protocol.py: the runner stopped at its cap,
+    or the interval is not within +-5% of the median)."""
     rows = []
     for k, g in df.groupby(keys, dropna=False):
         v = g[value].dropna()
         row = dict(zip(keys, k if isinstance(k, tuple) else (k,)))
         row.update(median=v.median(), min=v.min(), max=v.max(), repeats=len(v))
         row["ci_low"], row["ci_high"] = median_ci(v) if len(v) >= ci_from else (np.nan, np.nan)
+        stops = g["protocol.stop"].dropna() if "protocol.stop" in g else ()
+        row["capped"] = protocol.capped(row["median"], row["ci_low"], row["ci_high"], stops)
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def cell(row, fmt=".4g"):
+    """A timing cell: the median, its 95% interval and n ("capped" where the group missed the +-5% target), from a
+    summarise row (anything with median, ci_low, ci_high, repeats, capped); "—" where there is none."""
+    if row is None or not np.isfinite(row["median"]):
+        return "—"
+    lo, hi = row["ci_low"], row["ci_high"]
+    ci = f" [{lo:{fmt}}, {hi:{fmt}}]" if np.isfinite(lo) and np.isfinite(hi) else " [no interval]"
+    return f"{row['median']:{fmt}}{ci} n={int(row['repeats'])}" + (" capped" if row.get("capped") else "")
+
+
+def value(x):
+    """The median of a timing cell (a number, or the text cell() writes), NaN where there is none."""
+    if isinstance(x, str):
+        head = x.split(" ", 1)[0]
+        try:
+            return float(head)
+        except ValueError:
+            return np.nan
+    return float(x) if x is not None else np.nan

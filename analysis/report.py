@@ -6,192 +6,145 @@ import os
 
 import pandas as pd
 
+from analysis.escape import md
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
-from analysis.records import load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, tables_dir
+from analysis import claims as claims_mod
+from analysis import consistency, protocol
+from analysis.records import NONE_USED, ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
+    tables_dir
 
 EXPERIMENTS = ("table41", "formfactors", "table42", "table43", "table44", "table45", "figure42", "mpi-formfactors",
                "mpi-radiosity", "mpi-large")
 
 
-def provenance(preset):
-    frames = [f.dropna(axis=1, how="all") for f in (load(e, preset) for e in EXPERIMENTS) if not f.empty]
-    df = pd.concat(frames, ignore_index=True) if frames else None
-    if df is None:
-        return ["No records yet: run `make reproduce PRESET=%s`." % preset], 0
-    lines = []
+def preset_experiments(preset):
+    """The experiments of a preset: slurm/cases/<preset>/*.txt (those of EXPERIMENTS where the preset has no list)."""
+    d = ROOT / "slurm" / "cases" / preset
+    names = sorted(f.stem for f in d.glob("*.txt")) if preset.isidentifier() and d.is_dir() else []
+    return names or list(EXPERIMENTS)
+
+
+def experiments(preset):
+    """Per experiment of the preset: its records in the files (every commit), those the tables use, those left out
+    and the cases skipped; and the frame of the used records of the report's tables, for the provenance."""
+    rows, used = [], []
+    for e in preset_experiments(preset):
+        every, df = load(e, preset, history=True), load(e, preset)
+        f = str(machine_dir() / e / f"{preset}.jsonl")
+        left = sum(protocol.COUNTS.get(f, {}).get(k, 0) for k in protocol.LEFT_OUT)
+        sk = skipped(e, preset)
+        why = "; ".join(f"{len(g)} skipped: {md(r)}" for r, g in sk.groupby("reason")) if len(sk) else ""
+        state = "ran" if len(df) else ("no records used: all left out" if len(every) else "did not run")
+        rows.append(f"| {md(e)} | {state} | {len(every)} | {len(df)} | {left} | {why} |")
+        if len(df) and e in EXPERIMENTS:
+            used.append(df.dropna(axis=1, how="all"))
+    table = ["| experiment | status | records in the file (every commit) | used (newest commit of each case) | "
+             "left out (dirty tree, unknown commit, disturbed) | cases not run |", "|---|---|---:|---:|---:|---|",
+             *rows]
+    return table, (pd.concat(used, ignore_index=True) if used else pd.DataFrame())
+
+
+def how_to_read(preset, df, differ):
+    """The section that says what the report is made of: records, machine, state, protocol, commit, exclusions."""
+    out = ["## How to read this report", "",
+           "- **A record** is one run's line in `results/<machine>/<experiment>/<preset>.jsonl` (one JSON object: "
+           "what ran, what came out, its times, its provenance). Every count of records in this report is of such "
+           "lines; \"used\" means used by the tables after the exclusions below.",
+           f"- **The machine**: {md(machine())}. "
+           + ("This is the reference machine." if reference() == machine() else
+              f"The reference machine, beside which its numbers are set: {md(reference() or 'none')}."),
+           "- **The protocol** (docs: Hoefler and Belli, SC15; DESIGN.md \"Measurement protocol\"): records from a "
+           "working tree with uncommitted changes or from a commit not in this repository are left out; a run the "
+           "runner flagged as disturbed (load, bandwidth probe) is left out of the medians; every timing is the "
+           "median with the bootstrap 95% interval of the median and n, and a group whose interval is not within "
+           "+-5% of its median (or that stopped at its cap) is marked capped; claims are decided by the rule in "
+           "\"Claims of the report\". Runs that are no answer (exit status 3, 4, 5) are left out and named "
+           "under their table."]
+    if df.empty:
+        return out + ["- No records used: run `make reproduce PRESET=" + md(preset) + "`.", ""]
     for col, what in (("provenance.host", "host"), ("provenance.cpu_model", "CPU"), ("provenance.cpus_online", "CPUs"),
-                      ("provenance.compiler", "compiler"), ("provenance.git_commit", "git commit"),
+                      ("provenance.compiler", "compiler"), ("provenance.git_commit", "commits of the records used"),
                       ("backend_info.gpu", "GPU"), ("backend_info.mpi_library", "MPI")):
         if col in df.columns:
             vals = sorted({str(v) for v in df[col].dropna()})
-            lines.append(f"- {what}: {', '.join(vals) if vals else 'none'}")
+            out.append(f"- {what}: {md(', '.join(vals)) if vals else 'none'}")
     if "backend_info.gpu" not in df.columns:
-        lines.append("- GPU: none used (no GPU on this machine)")
+        out.append("- GPU: none used (no GPU records)")
     if "provenance.loadavg_1min" in df.columns:
-        busy = (df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum()
-        lines.append(f"- machine load: {busy} of {len(df)} records were taken while the 1-minute load average exceeded "
-                     "the core count (other work was running: their times are upper bounds)")
-    dirty = df["provenance.git_dirty"].astype(bool).sum() if "provenance.git_dirty" in df.columns else 0
-    lines.append(f"- records: {len(df)} ({dirty} from a working tree with uncommitted changes), "
-                 f"UTC {df['provenance.utc'].min()} to {df['provenance.utc'].max()}")
-    return lines, len(df)
-
-
-def medians(experiment, preset, keys):
-    df = radiosity_tables.solves(experiment, preset)
-    if df.empty:
-        return df
-    g = df.groupby(keys).agg(time_s=("time_s", "median"), iterations=("result.iterations", "median"))
-    return g.reset_index()
-
-
-def claim_bicgstab(preset):
-    m = medians("table42", preset, ["scene_id", "params.method"])
-    if m.empty:
-        return "cannot say", "no Table 4.2 records"
-    w = m.pivot(index="scene_id", columns="params.method")
-    fewer = (w["iterations"]["bicgstab"] < w["iterations"]["jacobi"])
-    slower = (w["time_s"]["bicgstab"] > w["time_s"]["jacobi"])
-    nums = "; ".join(f"scene {s}: {w['iterations']['jacobi'][s]:.0f} vs {w['iterations']['bicgstab'][s]:.0f} iterations, "
-                     f"{w['time_s']['jacobi'][s]:.4g} s vs {w['time_s']['bicgstab'][s]:.4g} s" for s in w.index)
-    if fewer.all() and slower.all():
-        return "confirmed", nums
-    if fewer.all() and not slower.any():
-        return "refuted: BiCG-STAB needs fewer iterations and is also faster", nums
-    return "partly", nums
-
-
-def claim_gpu(preset, experiment, what):
-    df = radiosity_tables.solves(experiment, preset) if experiment != "table41" else load("table41", preset)
-    gpu = df[df["params.backend"].isin(["cuda", "cublas", "cublas1", "cublas2", "hybrid"])] if not df.empty else df
-    if gpu.empty:
-        return "cannot say", f"no GPU on this machine: {what} not measured"
-    return None, ""
-
-
-def claim_aos_openmp(preset):
-    verdict, why = claim_gpu(preset, "table43", "the CUDA AOS column")
-    m = medians("table43", preset, ["scene_id", "params.backend"])
-    if m.empty:
-        return "cannot say", "no Table 4.3 records"
-    w = m.pivot(index="scene_id", columns="params.backend", values="time_s")
-    cpu = [c for c in ("original", "serial", "openmp") if c in w.columns]
-    best = w[cpu].idxmin(axis=1)
-    nums = "; ".join(f"scene {s}: fastest CPU column {best[s]} ({w.loc[s, best[s]]:.4g} s)" for s in w.index)
-    if verdict:
-        return verdict, f"{why}. Among the CPU columns: {nums}"
-    allc = [c for c in ("original", "serial", "openmp", "cuda") if c in w.columns]
-    best = w[allc].idxmin(axis=1)
-    ok = all(best[s] == ("cuda" if s == min(w.index) else "openmp") for s in w.index)
-    return ("confirmed" if ok else "refuted"), "; ".join(f"scene {s}: fastest {best[s]}" for s in w.index)
-
-
-def claim_soa(preset):
-    verdict, why = claim_gpu(preset, "table44", "the cuBLAS SOA column")
-    if verdict:
-        return verdict, why
-    m = medians("table44", preset, ["scene_id", "column"])
-    w = m.pivot(index="scene_id", columns="column", values="time_s")
-    large = max(w.index)
-    ok = w.loc[large, "cuda"] < w.loc[large, "openmp"]
-    return ("confirmed" if ok else "refuted"), f"scene {large}: cuBLAS {w.loc[large, 'cuda']:.4g} s, openmp {w.loc[large, 'openmp']:.4g} s"
-
-
-def claim_hybrid(preset):
-    verdict, why = claim_gpu(preset, "table45", "the hybrid sweep")
-    if verdict:
-        return verdict, why
-    df = radiosity_tables.solves("table45", preset)
-    t = df.groupby("params.distribution")["time_s"].median()
-    best = t.idxmin()
-    ok = 0 < best < 1
-    return ("confirmed" if ok and abs(best - 0.1) < 0.15 else "refuted"), f"fastest at d = {best:.1f} ({t[best]:.4g} s); d = 0: {t.get(0.0, float('nan')):.4g} s, d = 1: {t.get(1.0, float('nan')):.4g} s"
-
-
-def claim_poisson_gpu(preset):
-    verdict, why = claim_gpu(preset, "table41", "the CUDA Poisson runs")
-    if verdict:
-        return verdict, why
-    df, s = table41.ours(preset)
-    n = s["n"].max()
-    at = s[s["n"] == n].set_index("column")["median"]
-    gpu = at[[c for c in at.index if c in table41.GPU]].min()
-    cpu = at[[c for c in at.index if c not in table41.GPU]].min()
-    return ("confirmed" if gpu < cpu else "refuted"), f"N = {n}: best GPU {gpu:.4g} s, best CPU {cpu:.4g} s"
-
-
-CLAIMS = [
-    ("BiCG-STAB needs fewer iterations than Jacobi but more time (Table 4.2)", claim_bicgstab),
-    ("AOS with OpenMP is the fastest, except on the smallest scene where CUDA wins (Table 4.3)", claim_aos_openmp),
-    ("SOA with cuBLAS beats SOA with OpenMP on large scenes (Table 4.4)", claim_soa),
-    ("The hybrid is fastest near d = 0.1 but does not beat the single devices (Table 4.5)", claim_hybrid),
-    ("The GPU wins for large Poisson meshes (Table 4.1)", claim_poisson_gpu),
-]
+        busy = int((df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum())
+        out.append(f"- the machine's state: {busy} of the {len(df)} records used by the report's tables were "
+                   "taken while the 1-minute load average exceeded the core count (their times are upper bounds); "
+                   f"UTC {md(df['provenance.utc'].min())} to {md(df['provenance.utc'].max())}")
+    out += [f"- the same quantity quoted with different settings, or too few runs to check: {md(d)}" for d in differ]
+    return out + [""]
 
 
 def include(name, preset):
     f = tables_dir() / f"{name}_{preset}.md"
-    return f.read_text() if f.exists() else f"### {name}\n\nNo records for this preset yet.\n"
+    return f.read_text() if f.exists() else f"### {name}\n\nNo records used for this preset ({NONE_USED}).\n"
 
 
 def image(name, preset, alt):
     f = plots_dir() / f"{name}_{preset}.png"
-    return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records yet)\n"
+    return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records used)\n"
 
 
-def not_run(preset):
-    """What the runner skipped on this machine, per experiment and reason (no GPU, no RRV scenes)."""
-    rows = []
-    for f in sorted(machine_dir().glob(f"*/{preset}.skipped")):
-        s = skipped(f.parent.name, preset)
-        for reason, g in (s.groupby("reason") if len(s) else ()):
-            rows.append(f"| {f.parent.name} | {len(g)} | {reason} |")
-    if not rows:
-        return ["Every case of this preset ran on this machine."]
-    out = ["| experiment | cases skipped | why |", "|---|---|---|", *rows, ""]
-    if any("no RRV scenes" in r for r in rows):
-        out.append("The experiments with \"no RRV scenes\" lack scenes 3 and 4 (RRV's room3.xml and room2.xml): "
-                   "`make scenes` fetches them, then `make resume` runs what is missing.")
-    return out
+RULE = ("Each claim is decided part by part on this machine's records by one rule: the bootstrap 95% interval of "
+        "the ratio of medians (2000 resamples of each side, fixed seed) against 1. Above 1 where the claim says "
+        "\"slower\" or \"more\": *confirmed*; below: *refuted*; holding 1: *not separated* (the intervals "
+        "overlap). *not reproduced*: our setting differs from the report's in the quantity that decides the claim "
+        "(the iteration counts), so the verdict says nothing of the claim's mechanism. *not run*: this machine cannot "
+        "run it (no GPU); the row says what would decide it. Numbers: ours as ratio [95% interval] (n = runs of each "
+        "side), the report's ratio of its published times beside.")
 
 
 def claims(preset):
-    """The claims table: this machine's verdicts, and for any other machine than the reference the reference's."""
+    """The claims table: this machine's verdicts part by part, and for any other machine the reference's."""
     ref = reference()
     other = ref if ref and ref != machine() else None
-    head = "| claim | our data | the numbers that decide it |" + (f" reference {other} |" if other else "")
-    rows = [head, "|---|---|---|" + ("---|" if other else "")]
-    for text, fn in CLAIMS:
-        verdict, why = fn(preset)
-        row = f"| {text} | {verdict} | {why} |"
+    rows = claim_rows(preset)
+    head = "| claim | part | verdict | the numbers that decide it |" + (f" reference {md(other)} |" if other else "")
+    out = [RULE, "", head, "|---|---|---|---|" + ("---|" if other else "")]
+    theirs = []
+    if other:
+        with on(other):
+            theirs = claim_rows(preset)
+    for i, r in enumerate(rows):
+        line = f"| {md(r['claim'])} | {md(r['part'])} | {r['verdict']} | {md(r['numbers'])} |"
         if other:
-            with on(other):
-                row += f" {fn(preset)[0]} |"
-        rows.append(row)
-    return rows
+            match = [t["verdict"] for t in theirs if t["claim"] == r["claim"] and t["part"] == r["part"]]
+            line += f" {match[0] if match else '—'} |"
+        out.append(line)
+    return out
+
+
+def claim_rows(preset):
+    return claims_mod.all_claims(preset)
 
 
 def write(preset):
-    prov, n = provenance(preset)
+    ex_table, used = experiments(preset)
+    differ = consistency.check(consistency.load(preset))
     ref = reference()
     if ref == machine():
-        whose = f"This is the reference machine ({ref}), which every other machine's report is set beside."
+        whose = f"This is the reference machine ({md(ref)}), which every other machine's report is set beside."
     elif ref:
-        whose = (f"Each table sets this machine's numbers (ours) beside the reference machine's ({ref}, "
-                 f"`results/{ref}/`) and the report's; each claim is decided on this machine's records, the "
+        whose = (f"Each table sets this machine's numbers (ours) beside the reference machine's ({md(ref)}, "
+                 f"results/{md(ref)}/) and the report's; each claim is decided on this machine's records, the "
                  "reference's verdict beside it.")
     else:
         whose = "There is no reference machine's record folder here to set these numbers beside."
-    out = [f"# Reproduced report ({preset} preset) on {machine()}", "",
+    out = [f"# Reproduced report ({md(preset)} preset) on {md(machine())}", "",
            "The report: *Real Time Global Illumination Solutions to the Radiosity Algorithm using Hybrid CPU/GPU "
-           f"Nodes* (UMBC HPCF-2014-15). Every number below comes from this machine's records in `results/{machine()}/` "
+           f"Nodes* (UMBC HPCF-2014-15). Every number below comes from this machine's records in results/{md(machine())}/ "
            f"(made by `make reproduce PRESET={preset}`, tables by `make plots`); the report's numbers from "
            "`results/paper/`. Ratios are ours / report's. Our machine is not the report's (one maya node: 2 × 8-core "
            "Intel E5-2650v2 and an NVIDIA K20), so ratios of times compare machines as much as codes. " + whose, "",
-           "## Machine and provenance", "", *prov, "",
-           "## Cases not run on this machine", "", *not_run(preset), "",
+           *how_to_read(preset, used, differ),
+           f"## Experiments of this preset ({md(preset)})", "", *ex_table, "",
            "## Claims of the report", "", *claims(preset)]
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
+            include("table41_mg", preset),
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
             *table42_audit.report_section(preset, include, image),

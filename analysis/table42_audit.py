@@ -7,6 +7,7 @@ radiosity/solve/methods/stop_rule.cpp does, and the tables check that each run's
 import math
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -14,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.radiosity_tables import run_time, write as write_table  # noqa: E402
-from analysis.records import load, paper_table, plots_dir, tables_dir  # noqa: E402
+from analysis.records import NONE_USED, cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
 
 EXPERIMENT = "table42-audit"
 TOL = 1e-6
@@ -211,7 +212,7 @@ def gauss_seidel_table(df):
 
 def table42_with_gs(preset):
     """Table 4.2's scenes: OpenMP Jacobi, BiCG-STAB, Gauss-Seidel and SOR (one thread) (iterations, run time: median
-    of repeats), the fastest and its ratio to the report's OpenMP Jacobi time."""
+    [95% interval] n), the fastest and its ratio to the report's OpenMP Jacobi time."""
     from analysis.radiosity_tables import solves
     df = solves("table42", preset)
     if df.empty:
@@ -225,7 +226,8 @@ def table42_with_gs(preset):
             x = g[g["params.method"] == m]
             if len(x):
                 row[f"{m} iter"] = x["result.iterations"].median()
-                row[f"{m} s"] = times[m] = x["time_s"].median()
+                sm = summarise(x, ["params.method"], "time_s").iloc[0]
+                row[f"{m} s"], times[m] = cell(sm), sm["median"]
         if times:
             best = min(times, key=times.get)
             row["fastest"] = best
@@ -251,7 +253,9 @@ def plot(preset, df, counts):
             x = g[g["method"] == m]
             if len(x):
                 h = x["history"].iloc[0]
-                ax.semilogy(h["iteration"], rule_values(h, DEFAULT_RULE), style, label=m)
+                th = int(x["threads"].iloc[0]) if pd.notna(x["threads"].iloc[0]) else None
+                ax.semilogy(h["iteration"], rule_values(h, DEFAULT_RULE), style,
+                            label=f"{m} ({th} thread{'s' if th != 1 else ''})" if th else m)
         ax.axhline(TOL, color="grey", lw=0.8)
         if s in counts:
             for n, m, c in ((counts[s][0], "report Jacobi", "C0"), (counts[s][1], "report BiCG-STAB", "C2")):
@@ -259,9 +263,11 @@ def plot(preset, df, counts):
                 ax.text(n, 1e-9, f" {m}: {n}", color=c, rotation=90, va="bottom")
         ax.set_title(f"{SCENE_NAMES[s]}, {w} weights, start rrv (double)")
         ax.set_xlabel("iteration (BiCG-STAB: full iterations, 2 products each)")
+        ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(base=10, numticks=30))
         ax.grid(True, which="both", alpha=0.3)
     axes[0][0].set_ylabel("||e - A b|| / ||e|| (largest channel)")
-    axes[0][0].legend()
+    for ax in axes[0]:
+        ax.legend(fontsize=8)
     fig.tight_layout()
     out = plots_dir() / f"table42_audit_{preset}.png"
     fig.savefig(out, dpi=110)
@@ -339,7 +345,7 @@ def write(preset):
     t = table42_with_gs(preset)
     if not t.empty:
         write_table("table42_gs", preset, "Table 4.2 with Gauss-Seidel (OpenMP, AOS, 1e-6; run time: setup + solve)",
-                    t, ["Times are medians of repeats on this machine; the report's on one maya node. sor: omega "
+                    t, ["Times: median [95% interval of the median] n=runs on this machine; the report's on one maya node. sor: omega "
                         "1.4 on one thread (case list table42)."])
     df = runs(preset)
     if df.empty:
@@ -375,7 +381,7 @@ def fastest_lines(preset):
     if t.empty or "fastest" not in t.columns:
         return []
     return [f"- Scene {int(r['scene'])} ({int(r['patches'])} patches): the fastest CPU method is {r['fastest']}, "
-            f"{r[r['fastest'] + ' s']:.4g} s, {r['fastest / report Jacobi']:.3g} times the report's OpenMP Jacobi "
+            f"run time {r[r['fastest'] + ' s']} (seconds: median [95% interval] n), {r['fastest / report Jacobi']:.3g} times the report's OpenMP Jacobi "
             f"({r['report Jacobi s']:g} s)." for _, r in t.iterrows() if isinstance(r["fastest"], str)
             and not pd.isna(r.get("fastest / report Jacobi"))]
 
@@ -391,7 +397,7 @@ def report_section(preset, include, image):
            "rrv`: max(radiosity, emission), or zero). Every run below recorded its residual history "
            "(`--history`); case list `table42-audit`.", ""]
     if df.empty:
-        return out + ["No table42-audit records for this preset yet (`slurm/run-local formfactors "
+        return out + [f"No table42-audit records used for this preset ({NONE_USED}; to run them: `slurm/run-local formfactors "
                       "table42-audit-formfactors table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
     counts = report_counts()
     out += ["### Verdict", "", *verdict(df, counts), "",

@@ -122,7 +122,8 @@ def test_peers_help_exits_0():
 
 def test_bench_table_from_records(tmp_path):
     """analysis.bench on a few records: ratios against the triad limit and the peers, targets judged."""
-    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test",
+               ANALYSIS_ALL_RECORDS="1")  # records of this tree, clean or not
     res = tmp_path / "results" / "bench-test"
     p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
     assert p.returncode == 0, p.stderr
@@ -145,7 +146,8 @@ def test_bench_sparse_table_sets_each_storage_against_its_bytes(tmp_path, scene1
     """analysis.bench on bench-sparse records: per storage its bytes per step, its time over those bytes at the
     read sweep next to it, and bytes per entry (8 for csr float32, 4 + row starts for compressed float16, runs' own)."""
     ff, _ = scene1
-    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test",
+               ANALYSIS_ALL_RECORDS="1")  # records of this tree, clean or not
     res = tmp_path / "results" / "bench-test"
     for storage, values in (("dense", "float32"), ("csr", "float32"), ("compressed", "float16"), ("runs", "float16")):
         p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])

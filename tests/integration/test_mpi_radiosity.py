@@ -423,7 +423,7 @@ def test_ci_case_lists_run_on_the_local_runner_and_make_the_table(tmp_path):
     """The experiments of make reproduce (mpi-formfactors, mpi-radiosity, mpi-large) at the ci preset, through
     slurm/run-local as an array task would run them, then their table and plot."""
     e = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "REPEAT": "1",
-         "MACHINE": "mpi-test"}
+         "MACHINE": "mpi-test", "ANALYSIS_ALL_RECORDS": "1"}  # records of this tree, clean or not
     p = run([ROOT / "slurm" / "run-local", "mpi-formfactors", "mpi-radiosity", "mpi-large"], env=e, timeout=600)
     assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
     ff = sorted((tmp_path / "ff").glob("ci-mpi-scene1-P*.ff"))

@@ -85,7 +85,8 @@ def test_make_plots_names_a_record_that_does_not_validate(tmp_path):
     broken = dict(good, times_s=dict(good["times_s"], solve=-1.0))
     f.write_text(json.dumps(good) + "\n" + json.dumps(broken) + "\n")
     p = subprocess.run(["make", "-s", "plots", "PRESET=ci", "MACHINE=schema-test"], cwd=ROOT, capture_output=True,
-                       text=True, timeout=300, env={**__import__("os").environ, "RESULTS": str(tmp_path / "results")})
+                       text=True, timeout=300, env={**__import__("os").environ, "RESULTS": str(tmp_path / "results"),
+                            "ANALYSIS_ALL_RECORDS": "1"})
     try:
         assert p.returncode != 0, p.stdout + p.stderr
         assert f"{f}:2: not a valid hpcgi-record/1 record, left out: times_s/solve:" in p.stderr, p.stderr

@@ -12,7 +12,7 @@ def frame(storages, precisions):
 
 def test_dense_float32_runs_are_said_to_be_the_reports_storage():
     note = threads_note(frame(["dense", "dense"], ["float32", "float32"]))
-    assert "2 OpenMP thread(s). F as the report stored it, dense float32, in every run" in note
+    assert "the runner stopped at its cap). F as the report stored it, dense float32, in every run" in note
 
 
 def test_other_storages_are_named_with_their_counts():
@@ -23,4 +23,6 @@ def test_other_storages_are_named_with_their_counts():
 def test_records_without_form_factors_get_no_storage_note():
     df = pd.DataFrame({"params.threads": [2], "provenance.host": ["vm"]})
     assert storage_note(df) == ""
-    assert threads_note(df) == "Ours: median of repeats on vm with 2 OpenMP thread(s)."
+    assert threads_note(df) == ("Ours: median [95% interval of the median] n=runs, on vm with 2 OpenMP thread(s); "
+                                "capped: the interval is not within +-5% of the median (or the runner stopped at its "
+                                "cap). No record left out.")

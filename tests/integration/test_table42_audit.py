@@ -112,7 +112,8 @@ def test_bad_options_exit_2_with_one_line(scenes, bad, says, tmp_path):
 
 
 def test_ci_audit_case_lists_run_and_make_the_tables(tmp_path):
-    env = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "MACHINE": "audit-test"}
+    env = {"RESULTS": str(tmp_path / "results"), "FF_DIR": str(tmp_path / "ff"), "PRESET": "ci", "MACHINE": "audit-test",
+           "ANALYSIS_ALL_RECORDS": "1"}  # records of this tree, clean or not
     p = run([ROOT / "slurm" / "run-local", "formfactors", "table42-audit-formfactors", "table42-audit"], env=env, timeout=900)
     assert p.returncode == 0, p.stderr
     lines = (tmp_path / "results" / "audit-test" / "table42-audit" / "ci.jsonl").read_text().splitlines()

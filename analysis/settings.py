@@ -1,0 +1,78 @@
+"""The settings a table's numbers were made under, in one line under the table (issue 34): its scenes (the report's,
+or our stand-ins and why), hemicube weights and resolution, storage of F, tolerance, threads and ranks (ours beside
+the report's), preset; and the headers' thread and rank counts."""
+import re
+
+import numpy as np
+
+from analysis.escape import md
+
+# The report ran on one maya node: 2 x 8-core E5-2650v2 (16 threads, up to 16 MPI processes) and an NVIDIA K20.
+REPORT_THREADS = {"openmp": 16, "serial": 1, "original": 1}
+SCENES = {1: "scene 1 (our stand-in, radiosity/scenes/scene1.xml: RRV does not ship the report's)",
+          2: "scene 2 (our stand-in, radiosity/scenes/scene2.xml: RRV does not ship the report's)",
+          3: "scene 3 (RRV's room3.xml, the report's)", 4: "scene 4 (RRV's room2.xml, the report's)"}
+
+
+def _values(df, col, fmt=str):
+    if col not in df:
+        return None
+    vals = sorted({fmt(v) for v in df[col].dropna()}, key=str)
+    return ", ".join(vals) if vals else None
+
+
+def line(df, preset, what=None):
+    """"Settings: ..." for the records of df (one table's), from the records themselves."""
+    parts = [f"preset {md(preset)}"]
+    if "scene_id" in df and df["scene_id"].notna().any():
+        parts.append("; ".join(SCENES.get(int(s), f"scene {int(s)}") for s in sorted(set(df["scene_id"].dropna()))))
+    for col, name, fmt in (("params.weights", "hemicube weights", str), ("params.hemicube", "hemicube resolution",
+                                                                          lambda v: str(int(v))),
+                           ("params.tol", "tolerance", lambda v: f"{v:g}"), ("params.precision", "precision", str)):
+        v = _values(df, col, fmt)
+        if v:
+            parts.append(f"{name} {md(v)}")
+    if "params.storage" in df or "params.ff_precision" in df:
+        st = df["params.storage"].fillna("dense") if "params.storage" in df else None
+        fp = df["params.ff_precision"].fillna("float32") if "params.ff_precision" in df else None
+        if st is not None:
+            both = st + " " + (fp if fp is not None else "float32")
+            parts.append("F stored " + md(", ".join(sorted(set(both)))))
+    th = _values(df, "params.threads", lambda v: str(int(v)))
+    if th:
+        parts.append(f"ours {th} OpenMP thread(s) on {_values(df, 'provenance.cpus_online', lambda v: str(int(v)))} "
+                     "cores, the report's OpenMP 16 threads on 2 x 8 cores")
+    if what:
+        parts.append(what)
+    return "Settings: " + "; ".join(parts) + "."
+
+
+def threads_of(df, column):
+    """The thread or rank count a column of ours ran with, as a header suffix ("" where not known)."""
+    if column.startswith("p") and column[1:].isdigit():
+        return f" ({column[1:]} rank{'s' if column[1:] != '1' else ''})"
+    sel = df[df["column"] == column] if "column" in df else df.iloc[0:0]
+    th = sorted({int(v) for v in sel["params.threads"].dropna()}) if "params.threads" in sel else []
+    if column in ("serial", "original"):
+        return " (1 thread)"
+    return f" ({'/'.join(map(str, th))} thread{'s' if th != [1] else ''})" if th else ""
+
+
+def report_suffix(column):
+    if column in REPORT_THREADS:
+        n = REPORT_THREADS[column]
+        return f" ({n} thread{'s' if n != 1 else ''})"
+    if column.startswith("p") and column[1:].isdigit():
+        return f" ({column[1:]} rank{'s' if column[1:] != '1' else ''})"
+    if column.startswith("cuda") or column.startswith("cublas"):
+        return " (K20)"
+    return ""
+
+
+def base(column):
+    """A header without its thread or rank suffix: "ours openmp (2 threads)" -> "ours openmp"."""
+    return re.sub(r" \([^()]*\)$", "", column)
+
+
+def finite(x):
+    return x is not None and isinstance(x, (int, float, np.floating)) and np.isfinite(x)
