@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 
@@ -117,6 +118,9 @@ void check_outputs(const std::vector<Output>& outputs, const std::vector<std::st
     bool exists = false;
   };
   std::vector<Known> in, out;
+  std::map<std::string, size_t> by_key;
+  std::map<std::pair<dev_t, ino_t>, size_t> by_file;
+  static const char* const kOneFile = "one file cannot be two outputs";
   for (const auto& p : inputs) {
     struct stat st {};
     if (!p.empty() && ::stat(p.c_str(), &st) == 0) in.push_back({p, p, st.st_dev, st.st_ino, true});
@@ -147,9 +151,13 @@ void check_outputs(const std::vector<Output>& outputs, const std::vector<std::st
         throw UsageError(name + ": the folder " + in_quotes(dir) + " does not exist");
       if (::access(dir.c_str(), W_OK | X_OK) != 0) throw UsageError(name + ": the folder " + in_quotes(dir) + " is not writable");
     }
-    for (const Known& other : out)
-      if (other.key == k.key || (k.exists && other.exists && other.dev == k.dev && other.ino == k.ino))
-        throw UsageError(name + " is also given as " + other.what + ": one file cannot be two outputs");
+    // Indexed by name and by file: --png-frames checks a name per frame, 100000 of them.
+    auto twice = by_key.emplace(k.key, out.size());
+    if (!twice.second) throw UsageError(name + " is also given as " + out[twice.first->second].what + ": " + kOneFile);
+    if (k.exists) {
+      auto same = by_file.emplace(std::make_pair(k.dev, k.ino), out.size());
+      if (!same.second) throw UsageError(name + " is also given as " + out[same.first->second].what + ": " + kOneFile);
+    }
     out.push_back(k);
   }
 }
