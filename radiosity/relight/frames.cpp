@@ -53,12 +53,8 @@ Rgb triple(const nlohmann::json& v, const std::string& what) {
   return c;
 }
 
-}  // namespace
-
-std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
-                               bool allow_reflectivity_ge_1) {
-  std::vector<Rgb> scene_rho(m.size());
-  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
+// The frames file's JSON, refused with one line "FILE: ..." when larger than kMaxFramesFileBytes or malformed.
+nlohmann::json parse_frames_file(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) throw hpcgi::UsageError(path + ": cannot open the frames file");
   std::string text;
@@ -86,6 +82,16 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
                             (at != std::string::npos ? " at " + where(text, at) : std::string()) + ": " + literal +
                             " is not finite as a double");
   }
+  return doc;
+}
+
+}  // namespace
+
+std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
+                               bool allow_reflectivity_ge_1) {
+  std::vector<Rgb> scene_rho(m.size());
+  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
+  const nlohmann::json doc = parse_frames_file(path);
   if (!doc.is_object() || !doc.contains("frames") || !doc["frames"].is_array() || doc.size() != 1)
     throw hpcgi::UsageError(path + ": a frames file is one object {\"frames\": [frame, ...]}");
   const std::vector<NamedEntity> lights = lights_of(named);
