@@ -69,6 +69,14 @@ def output_options(program):
     return found
 
 
+def test_every_program_and_subcommand_is_attacked():
+    """A new program in bin/ or a new subcommand of bin/radiosity fails here until its outputs are attacked below."""
+    assert {p.name for p in BIN.iterdir() if os.access(p, os.X_OK)} == {p.split()[0] for p in PROGRAMS}
+    help_text = run([BIN / "radiosity", "--help"]).stdout.split("Subcommands:")[1].split("\n\n")[0]
+    subs = {line.split()[0] for line in help_text.strip().splitlines()}
+    assert subs == {p.split()[1] for p in PROGRAMS if p.startswith("radiosity ")}, subs
+
+
 def test_every_output_option_of_every_program_refuses_a_fifo_and_the_runs_input(tmp_path):
     (tmp_path / "box.xml").write_text(BOX)
     assert run(command("radiosity formfactors", tmp_path / "box.xml", "-o", tmp_path / "box.ff", "--hemicube", "8",
