@@ -141,12 +141,13 @@ namespace {
 // rank is reported with its rank and ends every rank, as the others may be waiting for it in a collective.
 int report(const std::string& program, const std::exception& e, const char* kind, int status) {
   const bool agreed = dynamic_cast<const AgreedError*>(&e) != nullptr;
+  const std::string line = one_line(e.what(), 4096);  // whatever a message quotes from a file, safe for a terminal
   if (comm::size() > 1 && !agreed) {
-    std::fprintf(stderr, "%s: rank %d of %d: %s%s\n", program.c_str(), comm::rank(), comm::size(), kind, e.what());
+    std::fprintf(stderr, "%s: rank %d of %d: %s%s\n", program.c_str(), comm::rank(), comm::size(), kind, line.c_str());
     std::fflush(stderr);
     comm::abort(status);
   }
-  if (comm::root()) std::fprintf(stderr, "%s: %s%s\n", program.c_str(), kind, e.what());
+  if (comm::root()) std::fprintf(stderr, "%s: %s%s\n", program.c_str(), kind, line.c_str());
   return status;
 }
 

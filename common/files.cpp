@@ -10,6 +10,8 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <stdexcept>
 
 #include "common/errors.hpp"
@@ -30,32 +32,53 @@ std::string kind_of(mode_t m) {
 
 std::string in_quotes(const std::string& path) { return "'" + one_line(path) + "'"; }
 
-// Temporary files to remove on SIGINT/SIGTERM: fixed slots, so the handler touches no allocator.
+// Temporary files to remove on a signal that ends the process: fixed slots, so the handler touches no allocator.
 constexpr int kSlots = 64;
 char g_paths[kSlots][PATH_MAX];
 std::atomic<bool> g_used[kSlots];
-struct sigaction g_old_int, g_old_term;
-std::atomic<bool> g_installed{false};
+
+// The signals whose default action ends the process and that a user, a terminal, a batch system or a limit sends.
+// While a temporary file exists, each is caught (its file removed, then the signal raised again with the action it
+// had) unless it was ignored: a signal ignored when the first temporary file appears (nohup, a background job of
+// a script: SIGINT and SIGQUIT) stays ignored and the run goes on (coreutils' rule). No temporary file left: every
+// action is as it was, so a program's own choice (a test ignoring SIGXFSZ) is never overridden for long.
+constexpr int kSignals[] = {SIGHUP, SIGINT, SIGQUIT, SIGPIPE, SIGTERM, SIGXCPU, SIGXFSZ};
+constexpr int kSignalCount = sizeof kSignals / sizeof kSignals[0];
+struct sigaction g_old[kSignalCount];
+bool g_caught[kSignalCount];
+std::mutex g_mutex;  // guards g_live, g_old, g_caught against two threads opening outputs at once
+int g_live = 0;      // slots in use
 
 void on_signal(int sig) {
   for (int i = 0; i < kSlots; ++i)
     if (g_used[i].load()) unlink(g_paths[i]);
-  sigaction(sig, sig == SIGINT ? &g_old_int : &g_old_term, nullptr);  // what the program did before, usually die
+  for (int k = 0; k < kSignalCount; ++k)
+    if (kSignals[k] == sig) sigaction(sig, &g_old[k], nullptr);  // what the program did before, usually die
   raise(sig);
 }
 
-int register_temp(const std::string& path) {
-  if (!g_installed.exchange(true)) {
-    struct sigaction sa {};
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &g_old_int);
-    sigaction(SIGTERM, &sa, &g_old_term);
+void catch_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  for (int k = 0; k < kSignalCount; ++k) {
+    g_caught[k] = sigaction(kSignals[k], nullptr, &g_old[k]) == 0 && g_old[k].sa_handler != SIG_IGN;
+    if (g_caught[k]) sigaction(kSignals[k], &sa, nullptr);
   }
+}
+
+void restore_signals() {
+  for (int k = 0; k < kSignalCount; ++k)
+    if (g_caught[k]) sigaction(kSignals[k], &g_old[k], nullptr);
+}
+
+int register_temp(const std::string& path) {
   if (path.size() >= PATH_MAX) return -1;
+  std::lock_guard<std::mutex> lock(g_mutex);
   for (int i = 0; i < kSlots; ++i) {
     if (g_used[i].load()) continue;
     std::memcpy(g_paths[i], path.c_str(), path.size() + 1);
+    if (g_live++ == 0) catch_signals();
     g_used[i].store(true);
     return i;
   }
@@ -95,6 +118,9 @@ void check_outputs(const std::vector<Output>& outputs, const std::vector<std::st
     bool exists = false;
   };
   std::vector<Known> in, out;
+  std::map<std::string, size_t> by_key;
+  std::map<std::pair<dev_t, ino_t>, size_t> by_file;
+  static const char* const kOneFile = "one file cannot be two outputs";
   for (const auto& p : inputs) {
     struct stat st {};
     if (!p.empty() && ::stat(p.c_str(), &st) == 0) in.push_back({p, p, st.st_dev, st.st_ino, true});
@@ -125,9 +151,13 @@ void check_outputs(const std::vector<Output>& outputs, const std::vector<std::st
         throw UsageError(name + ": the folder " + in_quotes(dir) + " does not exist");
       if (::access(dir.c_str(), W_OK | X_OK) != 0) throw UsageError(name + ": the folder " + in_quotes(dir) + " is not writable");
     }
-    for (const Known& other : out)
-      if (other.key == k.key || (k.exists && other.exists && other.dev == k.dev && other.ino == k.ino))
-        throw UsageError(name + " is also given as " + other.what + ": one file cannot be two outputs");
+    // Indexed by name and by file: --png-frames checks a name per frame, 100000 of them.
+    auto twice = by_key.emplace(k.key, out.size());
+    if (!twice.second) throw UsageError(name + " is also given as " + out[twice.first->second].what + ": " + kOneFile);
+    if (k.exists) {
+      auto same = by_file.emplace(std::make_pair(k.dev, k.ino), out.size());
+      if (!same.second) throw UsageError(name + " is also given as " + out[same.first->second].what + ": " + kOneFile);
+    }
     out.push_back(k);
   }
 }
@@ -149,7 +179,10 @@ std::string make_temp_beside(const std::string& path, int& slot) {
 }
 
 void release_temp(int slot) {
-  if (slot >= 0) g_used[slot].store(false);
+  if (slot < 0) return;
+  std::lock_guard<std::mutex> lock(g_mutex);
+  g_used[slot].store(false);
+  if (--g_live == 0) restore_signals();
 }
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path), target_(resolve_target(path)) {

@@ -11,8 +11,10 @@
 //     an unrelated FILE.tmp is left alone and two runs writing the same output never share one), which is renamed
 //     over the target only when whole (fsync first): a reader sees the old file or the new one, and of two runs
 //     writing one output the file holds one whole run's data;
-//   - the temporary file is removed on every error, when the AtomicFile is destroyed uncommitted, and on SIGINT or
-//     SIGTERM (the handler removes it, then ends the process with that signal as before).
+//   - the temporary file is removed on every error, when the AtomicFile is destroyed uncommitted, and on a signal
+//     that ends the process (SIGINT, SIGTERM, SIGHUP, ...: the handler removes it, then ends the process with that
+//     signal as before). A signal that was ignored when the first temporary file appeared stays ignored (nohup, a
+//     script's background job): the run goes on and writes its output (coreutils' rule).
 // Records are appended to a log (common/record.hpp), not replaced: check_outputs makes their folders and checks
 // that the file is a regular one.
 #pragma once
@@ -61,7 +63,7 @@ class AtomicFile {
   bool done_ = false;
 };
 
-// A unique temporary name for `path` created on disk (empty, mode 0644), registered for removal on SIGINT/SIGTERM
+// A unique temporary name for `path` created on disk (empty, mode 0644), registered for removal on a signal (above)
 // until released: for writers that cannot use a FILE* (MPI-IO opens it by name on every rank). Returns the name.
 std::string make_temp_beside(const std::string& path, int& slot);
 void release_temp(int slot);

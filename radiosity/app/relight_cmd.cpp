@@ -124,7 +124,7 @@ void add_relight(CLI::App& app, RelightArgs& a) {
                                  "\"reflectivity\": {NAME: [r,g,b]}}, ...]} (names as `bin/radiosity info` lists them)");
   auto* random = cmd->add_option("--random-frames", a.random_frames,
                                  "N frames of random light mixes (intensity in [0,2), colour in [0,1)^3), no file")
-                     ->check(CLI::PositiveNumber)->excludes(frames);
+                     ->check(CLI::Range(size_t(1), kMaxFrames))->excludes(frames);
   cmd->add_option("--seed", a.seed, "seed of --random-frames")->capture_default_str();
   cmd->add_option("--basis", a.basis,
                   "light-basis file: read when it exists (it must belong to this mesh, form factors and colours), "

@@ -58,10 +58,14 @@ struct ServedFrames {
   double worst_error = 0, worst_residual = 0;
   long checked = 0, solved = 0, over_tol = 0;
   hpcgi::Outcome outcome;  // 4 when a solved frame stopped at --max-iter (not at --frame-budget-ms); 3 when one
-                           // failed (NaN, breakdown, divergence, no solution): the frames stop at that one
+                           // failed (NaN, breakdown, divergence, no solution) or any frame's radiosity is not
+                           // finite (a light of intensity 1e39): the frames stop at that one
   nlohmann::json per_frame = nlohmann::json::array();
   std::vector<std::string> pngs;
 };
+// Where --png-frames PREFIX puts frame k: PREFIX_kkkk.png (4 digits at least).
+std::string png_frame_file(const std::string& prefix, size_t k);
+
 // Serves every frame in order, each warm from the one before (the first from the scene as it is).
 ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const RelightInputs& in,
                           const relight::LightBasis& basis);

@@ -84,6 +84,13 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
   else if (a.bench_rhs == 0)
     in.frames = read_frames(a.frames, in.m, in.named, a.load.allow_reflectivity_ge_1);
   in.cam = parse_view(a.view, in.m);
+  // Every frame's picture passes the output check with the run's other outputs, before anything is computed: no
+  // input (the form factors, the scene, its meshes, the basis) and no device or FIFO named PREFIX_0000.png is replaced.
+  if (!a.png_frames.empty()) {
+    std::vector<hpcgi::files::Output> outputs{{a.basis, "--basis"}};
+    for (size_t k = 0; k < in.frames.size(); ++k) outputs.push_back({png_frame_file(a.png_frames, k), "--png-frames"});
+    check_files(a, outputs, {{a.ff, "--ff"}, {a.frames, "--frames"}});
+  }
   const double n2 = double(n) * double(n);
   // At most: the dense values, a 16-bit dense copy for the frames (a sparse copy holds fewer values) and a float32
   // sparse one for the light basis (fewer than the dense values, and then no dense copy); with two or more lights

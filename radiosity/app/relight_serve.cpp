@@ -104,6 +104,17 @@ std::vector<Rgb> solved_frame(const RelightArgs& a, const RelightInputs& in, con
   return std::move(res.B);
 }
 
+// "patch I channel C is inf" for the first value of B that is not finite, empty when all are: a frame whose radiosity
+// is not finite is no answer (exit status 3), whichever way it was made (solve checks its result alike).
+std::string nonfinite_where(const std::vector<Rgb>& B) {
+  for (size_t i = 0; i < B.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(B[i][c]))
+        return "radiosity of patch " + std::to_string(i) + " channel " + "rgb"[c] + " is " +
+               (std::isnan(B[i][c]) ? "NaN" : B[i][c] > 0 ? "inf" : "-inf");
+  return {};
+}
+
 void print_frame(size_t k, const nlohmann::json& fr, double ms) {
   std::printf("  frame %zu: %s %.4f ms", k, fr["kind"].get<std::string>().c_str(), ms);
   if (fr.contains("iterations")) std::printf(", %ld iterations", fr["iterations"].get<long>());
@@ -114,6 +125,12 @@ void print_frame(size_t k, const nlohmann::json& fr, double ms) {
 }
 
 }  // namespace
+
+std::string png_frame_file(const std::string& prefix, size_t k) {
+  char name[32];
+  std::snprintf(name, sizeof name, "_%04zu.png", k);
+  return prefix + name;
+}
 
 ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const RelightInputs& in,
                           const LightBasis& basis) {
@@ -146,6 +163,12 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
         break;
       }
     }
+    if (const std::string bad = nonfinite_where(B); !bad.empty()) {
+      s.outcome = {hpcgi::kExitNumerical, "frame " + std::to_string(k) + ": nonfinite: " + bad};
+      fr["status"] = "nonfinite";
+      s.per_frame.push_back(fr);
+      break;
+    }
     fr["ms"] = ms;
     s.all_ms.push_back(ms);
     if (check) {
@@ -160,9 +183,7 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
       fr["radiosity"] = head;
     }
     if (!a.png_frames.empty()) {
-      char name[32];
-      std::snprintf(name, sizeof name, "_%04zu.png", k);
-      s.pngs.push_back(a.png_frames + name);
+      s.pngs.push_back(png_frame_file(a.png_frames, k));
       write_png(s.pngs.back(), render(in.m, B, in.cam, p.width, p.height, ropt));
     }
     if (!a.quiet && in.frames.size() <= 50) print_frame(k, fr, ms);

@@ -8,6 +8,7 @@
 #include "common/cli.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
+#include "common/one_line.hpp"
 #include "common/record.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
@@ -42,6 +43,7 @@ void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
                  const std::vector<hpcgi::files::Output>& inputs) {
   hpcgi::files::require_input(a.scene, "scene file");
   std::vector<std::string> paths{a.scene};
+  for (const std::string& mesh : scene_mesh_files(a.scene, a.load)) paths.push_back(mesh);  // teapot.obj
   for (const auto& f : inputs) {
     hpcgi::files::require_input(f.path, f.what);
     paths.push_back(f.path);
@@ -106,7 +108,9 @@ int run_info(const InfoArgs& a) {
   rec["result"]["named"] = names;
   rec["times_s"] = {{"load", load_s}};
   if (!a.quiet) {
-    std::printf("%s: %zu patches in %zu entities (divide %g), %zu emitting, loaded in %.3f s\n", a.scene.c_str(),
+    // Names and the path are shown terminal-safe (one_line): a name holding an escape sequence shows it as text.
+    std::printf("%s: %zu patches in %zu entities (divide %g), %zu emitting, loaded in %.3f s\n",
+                hpcgi::one_line(a.scene, 4096).c_str(),
                 m.size(), m.entities.size(), a.load.divide, emitters, load_s);
     std::printf("  total area %.4g, patch areas %.3g .. %.3g, max reflectivity %.3g, %s\n", area, amin, amax,
                 rho_max, grey ? "grey (all channels equal)" : "coloured");
@@ -115,10 +119,10 @@ int run_info(const InfoArgs& a) {
       for (const relight::NamedEntity& e : named)
         if (e.light == light || !light) {
           if (light)
-            std::printf("  light  %-20s %6zu patches, emission %g,%g,%g\n", e.name.c_str(), e.patches.size(),
+            std::printf("  light  %-20s %6zu patches, emission %g,%g,%g\n", hpcgi::one_line(e.name).c_str(), e.patches.size(),
                         e.emission[0], e.emission[1], e.emission[2]);
           else
-            std::printf("  entity %-20s %6zu patches, reflectivity %g,%g,%g%s\n", e.name.c_str(), e.patches.size(),
+            std::printf("  entity %-20s %6zu patches, reflectivity %g,%g,%g%s\n", hpcgi::one_line(e.name).c_str(), e.patches.size(),
                         e.reflectivity[0], e.reflectivity[1], e.reflectivity[2],
                         e.uniform_reflectivity ? "" : " (its first patch's; others differ)");
         }

@@ -12,6 +12,7 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/record.hpp"
+#include "common/sha256.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
@@ -58,8 +59,40 @@ std::string replace_all(std::string s, const std::string& from, const std::strin
   return s;
 }
 
+// The template with each placeholder replaced in one pass: a value is never searched for placeholders again (a
+// scene named "@DATA@.xml" puts that text in the title, nothing more).
+std::string fill(const std::string& page, const std::vector<std::pair<std::string, std::string>>& values) {
+  std::string out;
+  for (size_t at = 0; at < page.size();) {
+    bool replaced = false;
+    for (const auto& [key, value] : values)
+      if (page.compare(at, key.size(), key) == 0) {
+        out += value, at += key.size(), replaced = true;
+        break;
+      }
+    if (!replaced) out += page[at++];
+  }
+  return out;
+}
+
 std::string html_escape(const std::string& s) {
-  return replace_all(replace_all(replace_all(s, "&", "&amp;"), "<", "&lt;"), ">", "&gt;");
+  std::string out = replace_all(replace_all(replace_all(s, "&", "&amp;"), "<", "&lt;"), ">", "&gt;");
+  return replace_all(replace_all(out, "\"", "&quot;"), "'", "&#39;");
+}
+
+// The data block as JSON whose text holds no <, > or & (each written \u003c ...: inside a JSON string, the only
+// place they can be): no scene name can close the <script> element or open a comment in it.
+std::string script_json(const nlohmann::json& data) {
+  const std::string text = data.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return replace_all(replace_all(replace_all(text, "&", "\\u0026"), "<", "\\u003c"), ">", "\\u003e");
+}
+
+// "sha256-BASE64" of the text between the template's first `open` tag and the next `close`: what the CSP allows.
+std::string csp_hash(const std::string& page, const std::string& open, const std::string& close) {
+  const size_t from = page.find(open), to = page.find(close, from);
+  if (from == std::string::npos || to == std::string::npos) throw std::logic_error("web page template: no " + open);
+  const auto digest = hpcgi::sha256(std::string_view(page).substr(from + open.size(), to - from - open.size()));
+  return "sha256-" + base64(digest.data(), digest.size());
 }
 
 }  // namespace
@@ -135,9 +168,11 @@ int run_web(const WebArgs& a) {
       {"weight_patch", base64(w.patch)},
       {"weight_value", base64(w.weight)}};
   const std::string title = "Relight " + a.scene.substr(a.scene.find_last_of('/') + 1);
-  std::string page = replace_all(kPage, "@TITLE@", html_escape(title));
-  page = replace_all(page, "@PATCHES@", std::to_string(n));
-  page = replace_all(page, "@DATA@", replace_all(data.dump(), "</", "<\\/"));
+  const std::string page = fill(kPage, {{"@SCRIPT_HASH@", csp_hash(kPage, "<script>", "</script>")},
+                                         {"@STYLE_HASH@", csp_hash(kPage, "<style>", "</style>")},
+                                         {"@TITLE@", html_escape(title)},
+                                         {"@PATCHES@", std::to_string(n)},
+                                         {"@DATA@", script_json(data)}});
   {
     hpcgi::files::AtomicFile out(a.out);
     if (std::fwrite(page.data(), 1, page.size(), out.stream()) != page.size()) out.fail(std::strerror(errno));

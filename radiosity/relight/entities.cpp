@@ -2,6 +2,8 @@
 
 #include <map>
 
+#include "common/one_line.hpp"
+
 namespace radiosity::relight {
 
 std::vector<NamedEntity> named_entities(const Mesh& m) {
@@ -47,7 +49,7 @@ std::vector<NamedEntity> lights_of(const std::vector<NamedEntity>& named) {
 
 std::string name_list(const std::vector<NamedEntity>& named, size_t limit) {
   std::string s;
-  for (size_t i = 0; i < named.size() && i < limit; ++i) s += (i ? ", " : "") + named[i].name;
+  for (size_t i = 0; i < named.size() && i < limit; ++i) s += (i ? ", " : "") + hpcgi::one_line(named[i].name, 100);
   if (named.size() > limit) s += ", ... (" + std::to_string(named.size()) + " in all)";
   return s.empty() ? "none" : s;
 }

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "common/errors.hpp"
+#include "common/memory.hpp"
 
 namespace radiosity::relight {
 namespace {
@@ -53,17 +53,16 @@ Rgb triple(const nlohmann::json& v, const std::string& what) {
   return c;
 }
 
-}  // namespace
-
-std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
-                               bool allow_reflectivity_ge_1) {
-  std::vector<Rgb> scene_rho(m.size());
-  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
-  std::ifstream f(path);
+// The frames file's JSON, refused with one line "FILE: ..." when larger than kMaxFramesFileBytes or malformed.
+nlohmann::json parse_frames_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
   if (!f) throw hpcgi::UsageError(path + ": cannot open the frames file");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const std::string text = ss.str();
+  std::string text;
+  std::vector<char> chunk(size_t(1) << 16);
+  while (f.read(chunk.data(), std::streamsize(chunk.size())) || f.gcount() > 0)
+    if (text.append(chunk.data(), size_t(f.gcount())).size() > kMaxFramesFileBytes)
+      throw hpcgi::UsageError(path + ": a frames file of more than " + hpcgi::format_bytes(double(kMaxFramesFileBytes)) +
+                            " (at most " + std::to_string(kMaxFrames) + " frames)");
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
@@ -83,22 +82,45 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
                             (at != std::string::npos ? " at " + where(text, at) : std::string()) + ": " + literal +
                             " is not finite as a double");
   }
+  return doc;
+}
+
+}  // namespace
+
+std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
+                               bool allow_reflectivity_ge_1) {
+  std::vector<Rgb> scene_rho(m.size());
+  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
+  const nlohmann::json doc = parse_frames_file(path);
   if (!doc.is_object() || !doc.contains("frames") || !doc["frames"].is_array() || doc.size() != 1)
     throw hpcgi::UsageError(path + ": a frames file is one object {\"frames\": [frame, ...]}");
   const std::vector<NamedEntity> lights = lights_of(named);
   std::map<std::string, size_t> light_index, entity_index;
   for (size_t l = 0; l < lights.size(); ++l) light_index[lights[l].name] = l;
   for (size_t e = 0; e < named.size(); ++e) entity_index[named[e].name] = e;
+  const nlohmann::json& list = doc["frames"];
+  if (list.size() > kMaxFrames)
+    throw hpcgi::UsageError(path + ": " + std::to_string(list.size()) + " frames, more than " +
+                            std::to_string(kMaxFrames) + " in one run");
+  // At most: every frame's lights, and a copy of every entity's reflectivity for each frame that changes one.
+  size_t changes = 0;
+  for (const nlohmann::json& fr : list) changes += fr.is_object() && fr.contains("reflectivity");
+  hpcgi::require_host_memory(path + ": " + std::to_string(list.size()) + " frames",
+                             double(list.size()) * double(sizeof(Frame) + lights.size() * sizeof(LightSetting)) +
+                                 double(changes) * double(named.size()) * (sizeof(std::optional<Rgb>) + sizeof(double)));
   Frame state;
   state.lights.assign(lights.size(), LightSetting{});
-  state.reflectivity.assign(named.size(), std::nullopt);
-  state.reflectivity_scale.assign(named.size(), 1.0);
+  FrameReflectivity rho;
+  rho.reflectivity.assign(named.size(), std::nullopt);
+  rho.scale.assign(named.size(), 1.0);
+  state.rho = std::make_shared<const FrameReflectivity>(rho);
   std::vector<Frame> frames;
-  const nlohmann::json& list = doc["frames"];
+  frames.reserve(list.size());
   for (size_t k = 0; k < list.size(); ++k) {
     const std::string at = path + ": frame " + std::to_string(k) + ": ";
     try {
       const nlohmann::json& fr = list[k];
+      bool changed = false;
       if (!fr.is_object()) throw hpcgi::UsageError("a frame is an object {\"lights\": {...}, \"reflectivity\": {...}}");
       for (const auto& [key, value] : fr.items()) {
         if (key == "lights") {
@@ -116,6 +138,7 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
             }
           }
         } else if (key == "reflectivity") {
+          changed = true;
           if (!value.is_object()) throw hpcgi::UsageError("\"reflectivity\" must be an object {NAME: [r, g, b]}");
           for (const auto& [name, v] : value.items()) {
             const auto it = entity_index.find(name);
@@ -133,30 +156,31 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
               if (top >= 1 && !allow_reflectivity_ge_1)
                 throw hpcgi::UsageError(what + " times " + v["scale"].dump() + " is >= 1 in a channel of a patch (" +
                                         std::to_string(top) + "); give --allow-reflectivity-ge-1 to accept it");
-              state.reflectivity[it->second] = std::nullopt;
-              state.reflectivity_scale[it->second] = f;
+              rho.reflectivity[it->second] = std::nullopt;
+              rho.scale[it->second] = f;
               continue;
             }
-            const Rgb rho = triple(v, what);
-            for (int c = 0; c < 3; ++c)
-              if (rho[c] >= 1 && !allow_reflectivity_ge_1)
+            const Rgb c = triple(v, what);
+            for (int ch = 0; ch < 3; ++ch)
+              if (c[ch] >= 1 && !allow_reflectivity_ge_1)
                 throw hpcgi::UsageError(what + " is >= 1 in a channel (" + v.dump() +
                                         "); give --allow-reflectivity-ge-1 to accept it");
-            state.reflectivity[it->second] = rho;
-            state.reflectivity_scale[it->second] = 1;
+            rho.reflectivity[it->second] = c;
+            rho.scale[it->second] = 1;
           }
         } else {
           throw hpcgi::UsageError("unknown key '" + key + "' (a frame has lights, reflectivity)");
         }
       }
+      if (changed) state.rho = std::make_shared<const FrameReflectivity>(rho);
     } catch (const hpcgi::UsageError& e) {
       throw hpcgi::UsageError(at + e.what());
     }
     state.scene_reflectivity = true;
     for (size_t e = 0; e < named.size(); ++e)
-      state.scene_reflectivity &= state.reflectivity_scale[e] == 1 &&
-                                  (!state.reflectivity[e] ||
-                                   (named[e].uniform_reflectivity && *state.reflectivity[e] == named[e].reflectivity));
+      state.scene_reflectivity &= rho.scale[e] == 1 &&
+                                  (!rho.reflectivity[e] ||
+                                   (named[e].uniform_reflectivity && *rho.reflectivity[e] == named[e].reflectivity));
     frames.push_back(state);
   }
   if (frames.empty()) throw hpcgi::UsageError(path + ": no frames");
@@ -172,10 +196,13 @@ std::vector<Frame> random_frames(size_t count, uint64_t seed, const std::vector<
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return double((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
   };
+  FrameReflectivity scene;
+  scene.reflectivity.assign(named.size(), std::nullopt);
+  scene.scale.assign(named.size(), 1.0);
+  const auto rho = std::make_shared<const FrameReflectivity>(scene);
   std::vector<Frame> frames(count);
   for (Frame& f : frames) {
-    f.reflectivity.assign(named.size(), std::nullopt);
-    f.reflectivity_scale.assign(named.size(), 1.0);
+    f.rho = rho;
     f.lights.resize(k);
     for (LightSetting& l : f.lights) {
       l.intensity = 2 * uniform();
@@ -192,8 +219,8 @@ Mesh frame_mesh(const Mesh& m, const std::vector<NamedEntity>& named, const Fram
   for (size_t i = 0; i < m.size(); ++i) out.patches[i].emission = e[i];
   for (size_t k = 0; k < named.size(); ++k)
     for (size_t i : named[k].patches) {
-      if (f.reflectivity[k]) out.patches[i].reflectivity = *f.reflectivity[k];
-      for (double& c : out.patches[i].reflectivity) c *= f.reflectivity_scale[k];
+      if (f.rho->reflectivity[k]) out.patches[i].reflectivity = *f.rho->reflectivity[k];
+      for (double& c : out.patches[i].reflectivity) c *= f.rho->scale[k];
     }
   return out;
 }

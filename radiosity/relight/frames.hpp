@@ -12,6 +12,7 @@
 // `bin/radiosity info` lists.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,17 +22,29 @@
 
 namespace radiosity::relight {
 
+// The reflectivity a frame's entities have: one entry per named entity.
+struct FrameReflectivity {
+  // The reflectivity a frame (this or an earlier one) gave all the entity's patches, or none (the scene's, which
+  // may differ from patch to patch).
+  std::vector<std::optional<Rgb>> reflectivity;
+  std::vector<double> scale;  // its patches' scene reflectivity times this (1: none)
+};
+
 struct Frame {
   std::vector<LightSetting> lights;  // one per light, in the order of lights_of(named)
-  // One per named entity: the reflectivity a frame (this or an earlier one) gave all its patches, or none (the
-  // scene's, which may differ from patch to patch).
-  std::vector<std::optional<Rgb>> reflectivity;
-  std::vector<double> reflectivity_scale;  // one per named entity: its patches' scene reflectivity times this (1: none)
+  // Shared by the frames between two changes of a reflectivity: a frame that changes none costs its lights alone.
+  std::shared_ptr<const FrameReflectivity> rho;
   bool scene_reflectivity = true;    // every patch has the scene's reflectivity: the light basis serves the frame
 };
 
+// The most frames one run serves (--frames, --random-frames), and the largest frames file: the record holds every
+// frame, and a frames file's JSON is held whole while it is read.
+constexpr size_t kMaxFrames = 100000;
+constexpr size_t kMaxFramesFileBytes = size_t(32) << 20;
+
 // Reads and checks every frame before anything is computed. Refuses with hpcgi::UsageError, one line
-// "FILE: frame K: reason" (K from 0; malformed JSON: the line, column and frame it is in): not JSON (NaN and
+// "FILE: frame K: reason" (K from 0; malformed JSON: the line, column and frame it is in): a file of more than
+// kMaxFramesFileBytes or more than kMaxFrames frames, or whose frames would not fit in memory, not JSON (NaN and
 // Infinity are not JSON), not {"frames": [...]}, an unknown key, an unknown light or entity name (the known ones are
 // listed), a value that is not a number, negative or not finite, a colour that is not three numbers, a reflectivity
 // >= 1 in a channel without allow_reflectivity_ge_1.

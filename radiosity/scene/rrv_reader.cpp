@@ -311,12 +311,25 @@ class Reader {
   Mesh mesh_;
 };
 
-Mesh load(const XmlInput& in, const LoadOptions& opt, std::vector<std::string> teapot_dirs) {
+// Where the teapot primitive's teapot.obj is looked for, in order: `first` (empty: nowhere), then $RRV_SCENES.
+std::vector<std::string> teapot_dirs(const std::string& first) {
+  std::vector<std::string> dirs;
+  if (!first.empty()) dirs.push_back(first);
+  if (const char* env = std::getenv("RRV_SCENES"); env && *env) dirs.emplace_back(env);
+  return dirs;
+}
+
+// A scene file's first folder to look in: the primitive folder if given, else the scene file's own.
+std::string file_teapot_dir(const std::string& path, const LoadOptions& opt) {
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  return opt.primitive_dir.empty() ? (folder.empty() ? "." : folder) : opt.primitive_dir;
+}
+
+Mesh load(const XmlInput& in, const LoadOptions& opt, const std::vector<std::string>& dirs) {
   if (!(opt.divide > 0) || !std::isfinite(opt.divide))
     throw hpcgi::UsageError("the maximum patch area (--divide) must be a positive number, got " +
                             std::to_string(opt.divide));
-  if (const char* env = std::getenv("RRV_SCENES"); env && *env) teapot_dirs.emplace_back(env);
-  return Reader(in, opt, std::move(teapot_dirs)).read();
+  return Reader(in, opt, dirs).read();
 }
 
 }  // namespace
@@ -327,15 +340,24 @@ Mesh load_rrv_scene(const std::string& path, const LoadOptions& opt) {
   if (!f) throw hpcgi::UsageError("cannot read scene file " + path + ": " + std::strerror(errno));
   std::ostringstream text;
   text << f.rdbuf();
-  const std::string folder = std::filesystem::path(path).parent_path().string();
   const XmlInput in(text.str(), path);
-  return load(in, opt, {opt.primitive_dir.empty() ? (folder.empty() ? "." : folder) : opt.primitive_dir});
+  return load(in, opt, teapot_dirs(file_teapot_dir(path, opt)));
 }
 
 Mesh load_rrv_scene_string(const std::string& xml, const LoadOptions& opt, const std::string& origin) {
   const XmlInput in(xml, origin);
-  return load(in, opt,
-              opt.primitive_dir.empty() ? std::vector<std::string>{} : std::vector<std::string>{opt.primitive_dir});
+  return load(in, opt, teapot_dirs(opt.primitive_dir));
+}
+
+std::vector<std::string> scene_mesh_files(const std::string& path, const LoadOptions& opt) {
+  pugi::xml_document doc;
+  if (!doc.load_file(path.c_str())) return {};  // the loader refuses it in its words
+  if (!doc.find_node([](const pugi::xml_node& n) { return std::strcmp(n.name(), "teapot") == 0; })) return {};
+  for (const std::string& dir : teapot_dirs(file_teapot_dir(path, opt))) {
+    const std::filesystem::path file = std::filesystem::path(dir) / "teapot.obj";
+    if (std::filesystem::is_regular_file(file)) return {file.string()};
+  }
+  return {};
 }
 
 }  // namespace radiosity

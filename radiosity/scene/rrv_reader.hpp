@@ -6,6 +6,7 @@
 // Bad input throws hpcgi::UsageError with one line "<file>:<line>: <what>".
 #pragma once
 #include <string>
+#include <vector>
 
 #include "radiosity/mesh.hpp"
 
@@ -26,6 +27,11 @@ struct LoadOptions {
 };
 
 Mesh load_rrv_scene(const std::string& path, const LoadOptions& opt = {});
+
+// The mesh files the scene at `path` reads beside its XML (the teapot primitive's teapot.obj, as load_rrv_scene
+// finds it): inputs of the run, which no output may replace. Empty for a scene that names no teapot, or that does
+// not parse (the loader then refuses it).
+std::vector<std::string> scene_mesh_files(const std::string& path, const LoadOptions& opt = {});
 
 // The same from XML text; `origin` names it in messages. The teapot is looked for in opt.primitive_dir (if set),
 // then $RRV_SCENES.

@@ -67,6 +67,13 @@ void XmlInput::fail(const pugi::xml_node& n, const std::string& what) const {
 
 void XmlInput::allow_only(const pugi::xml_node& n, const std::vector<std::string>& allowed) const {
   for (const pugi::xml_attribute& a : n.attributes()) {
+    // A value is UTF-8 text (pugixml converts a file declared in another encoding to it, and checks nothing): a name
+    // goes into records, messages and the web page as it is.
+    const std::string_view v = a.value();
+    uint32_t cp = 0;
+    for (size_t i = 0, len = 0; i < v.size(); i += len)
+      if ((len = hpcgi::utf8_at(v, i, cp)) == 0)
+        fail(n, std::string("attribute '") + a.name() + "' of <" + n.name() + "> is not UTF-8 text: '" + std::string(v) + "'");
     // XML forbids an attribute twice on one element (pugixml keeps both; which one would count is a guess)
     for (pugi::xml_attribute b = a.next_attribute(); b; b = b.next_attribute())
       if (std::strcmp(a.name(), b.name()) == 0) fail(n, std::string("attribute '") + a.name() + "' twice on <" + n.name() + ">");

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -132,31 +133,101 @@ TEST(Files, TwoWritersOfOneOutputEachWriteAWholeFile) {
   EXPECT_EQ(entries(d), 1u);
 }
 
-TEST(Files, SigtermRemovesTheTemporaryFileAndStillEndsTheProcess) {
-  for (int sig : {SIGTERM, SIGINT}) {
-    Dir d;
-    int fds[2];
-    ASSERT_EQ(pipe(fds), 0);
-    const pid_t pid = fork();
-    if (pid == 0) {
-      AtomicFile f(d / "out.png");
-      std::fputs("partial", f.stream());
-      std::fflush(f.stream());
-      if (write(fds[1], "x", 1) != 1) _exit(9);
-      pause();  // killed here, mid-write
-      _exit(0);
-    }
+namespace {
+
+// The child of the signal tests, run by exec as a fresh process (as under nohup: a signal ignored before exec stays
+// ignored, a caught one is reset to its default), before main: opens DIR/out.png, writes, says so on fd READY, waits
+// for a byte on fd GO (through any signal it survives), then commits; exit 0 when the output was written, 3 if not.
+const bool g_signal_child = [] {
+  const char* spec = std::getenv("HPCGI_FILES_SIGNAL_CHILD");  // "DIR READY GO"
+  if (!spec) return false;
+  char dir[4096];
+  int ready = -1, go = -1;
+  if (std::sscanf(spec, "%4095s %d %d", dir, &ready, &go) != 3) _exit(9);
+  try {
+    AtomicFile f(std::string(dir) + "/out.png");
+    std::fputs("whole", f.stream());
+    std::fflush(f.stream());
+    if (write(ready, "x", 1) != 1) _exit(9);
     char c;
-    ASSERT_EQ(read(fds[0], &c, 1), 1);
-    EXPECT_EQ(entries(d), 1u);  // the temporary file exists while it writes
-    kill(pid, sig);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << status;
-    EXPECT_EQ(entries(d), 0u) << "signal " << sig;
-    close(fds[0]);
-    close(fds[1]);
+    while (read(go, &c, 1) != 1) {  // a caught signal interrupts read: wait on
+    }
+    f.commit();
+  } catch (const std::exception&) {
+    _exit(3);
   }
+  _exit(0);
+}();
+
+// Starts the child above with `sig` set to `action` (whatever the test process inherited: `trap "" INT` makes SIGINT
+// ignored here), sends it `sig` while it writes, then lets it go on. Returns its wait status (a child still alive
+// after 10 s is killed and -1 returned: the test fails, it never hangs) and whether the temporary file existed
+// while it wrote.
+int signalled_child(const Dir& d, int sig, void (*action)(int), bool& temp_seen) {
+  int ready[2], go[2];
+  if (pipe(ready) != 0 || pipe(go) != 0) return -1;
+  const std::string spec = d.p.string() + " " + std::to_string(ready[1]) + " " + std::to_string(go[0]);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    signal(sig, action);
+    setenv("HPCGI_FILES_SIGNAL_CHILD", spec.c_str(), 1);
+    execl("/proc/self/exe", "/proc/self/exe", static_cast<char*>(nullptr));
+    _exit(8);
+  }
+  char c;
+  temp_seen = read(ready[0], &c, 1) == 1 && entries(d) == 1;
+  kill(pid, sig);  // an ignored signal is dropped here; a caught one ends the child
+  if (write(go[1], "x", 1) != 1) { /* the child has already ended */ }
+  int status = -1;
+  for (int waited = 0; waited < 1000 && waitpid(pid, &status, WNOHANG) == 0; ++waited) usleep(10000);
+  if (status == -1) {
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+  }
+  for (int fd : {ready[0], ready[1], go[0], go[1]}) close(fd);
+  return status;
+}
+
+}  // namespace
+
+// Under both dispositions, for every signal the writer handles, whatever the test process itself inherited.
+TEST(Files, ACaughtSignalRemovesTheTemporaryFileAndStillEndsTheProcess) {
+  for (int sig : {SIGTERM, SIGINT, SIGHUP, SIGQUIT}) {
+    Dir d;
+    bool temp_seen = false;
+    const int status = signalled_child(d, sig, SIG_DFL, temp_seen);
+    EXPECT_TRUE(temp_seen) << "signal " << sig;  // the temporary file exists while it writes
+    EXPECT_TRUE(status != -1 && WIFSIGNALED(status) && WTERMSIG(status) == sig) << "signal " << sig << ": " << status;
+    EXPECT_EQ(entries(d), 0u) << "signal " << sig;
+  }
+}
+
+TEST(Files, ASignalIgnoredAtTheStartStaysIgnoredAndTheOutputIsWritten) {
+  for (int sig : {SIGTERM, SIGINT, SIGHUP, SIGQUIT}) {
+    Dir d;
+    bool temp_seen = false;
+    const int status = signalled_child(d, sig, SIG_IGN, temp_seen);
+    EXPECT_TRUE(temp_seen) << "signal " << sig;
+    EXPECT_TRUE(status != -1 && WIFEXITED(status) && WEXITSTATUS(status) == 0) << "signal " << sig << ": " << status;
+    EXPECT_EQ(get(d / "out.png"), "whole") << "signal " << sig;
+    EXPECT_EQ(entries(d), 1u) << "signal " << sig;
+  }
+}
+
+TEST(Files, NoHandlerIsLeftOnceNoTemporaryFileExists) {
+  struct sigaction before {}, during {}, after {};
+  sigaction(SIGTERM, nullptr, &before);
+  Dir d;
+  {
+    AtomicFile f(d / "x.png");
+    sigaction(SIGTERM, nullptr, &during);
+    if (before.sa_handler != SIG_IGN) {
+      EXPECT_NE(during.sa_handler, before.sa_handler);
+    }
+    f.commit();
+  }
+  sigaction(SIGTERM, nullptr, &after);
+  EXPECT_EQ(after.sa_handler, before.sa_handler);
 }
 
 TEST(Files, InputsMustBeRegularFiles) {

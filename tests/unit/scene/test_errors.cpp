@@ -200,3 +200,13 @@ TEST(Errors, QuotedInputStaysOneLine) {
           "</scene>",
           {"object 'a\\x0db' names no objectdef"});
 }
+
+TEST(Errors, AValueThatIsNotUtf8IsRefused) {
+  // a Latin-1 byte, a stray continuation byte, an overlong '<': no name of a record, a message or the web page
+  for (const std::string bad : {"caf\xe9", "x\x80y", "\xc0\xbc" "script"})
+    refused(in_objectdef("<triangleset name='" + bad + "' emission='1,1,1' reflectivity='0.5,0.5,0.5'>" + kTriangle +
+                         "</triangleset>"),
+            {"<string>:4:", "attribute 'name' of <triangleset> is not UTF-8 text"});
+  refused("<scene>\n<head>\n<objectdef name='\xff'>\n" + kTriangle + "\n</objectdef>\n</head>\n</scene>\n",
+          {"<string>:3:", "is not UTF-8 text", "\\xff"});
+}
