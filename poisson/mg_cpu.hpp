@@ -167,7 +167,26 @@ class CpuMg final : public MgLevels {
     if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
   }
 
-  void prolong_add(int l) override {
+  void prolong_add(int l) override { prolong(l, true); }
+  void interpolate(int l) override { prolong(l, false); }
+
+  // b_{l+1} = Pᵀ b_l in one pass (read b, write a quarter), the coarse rows as restrict_residual makes them.
+  void restrict_rhs(int l) override {
+    CpuLevel<T>& f = lv_[l];
+    CpuLevel<T>& c = lv_[l + 1];
+    if (!f.rows.whole) comm_->halo(f, f.b);
+    const long j0 = f.rows.y0 / 2, j1 = (f.rows.y0 + f.rows.ny) / 2;
+#pragma omp parallel for schedule(static) if (f.threaded())
+    for (long J = j0; J < j1; ++J) {
+      const long jf = 2 * J + 1 - f.rows.y0;
+      restrict_row(f.row(f.b, jf - 1), f.row(f.b, jf), f.row(f.b, jf + 1), c.row(c.b, J - c.rows.y0), c.rows.n);
+    }
+    if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
+  }
+
+ private:
+  // x_l += P x_{l+1} (add) or x_l = P x_{l+1}.
+  void prolong(int l, bool add) {
     CpuLevel<T>& f = lv_[l];
     CpuLevel<T>& c = lv_[l + 1];
     if (!c.rows.whole) comm_->halo(c, c.x);
@@ -181,13 +200,19 @@ class CpuMg final : public MgLevels {
       const T* __restrict cb = c.row(c.x, J);
       T* __restrict x = f.row(f.x, jl);
       // Padded fine column k = 2C sits on padded coarse column C; k = 2C + 1 lies between C and C + 1.
-      for (long k = 1; k <= n; ++k) {
+      auto value = [&](long k) {
         const long C = k / 2;
         const T a = T(0.5) * (ca[C] + cb[C]);
-        x[k] += (k & 1) ? T(0.5) * (a + T(0.5) * (ca[C + 1] + cb[C + 1])) : a;
-      }
+        return (k & 1) ? T(0.5) * (a + T(0.5) * (ca[C + 1] + cb[C + 1])) : a;
+      };
+      if (add)
+        for (long k = 1; k <= n; ++k) x[k] += value(k);
+      else
+        for (long k = 1; k <= n; ++k) x[k] = value(k);
     }
   }
+
+ public:
 
   // The fused halves of a level's V-cycle (mg.hpp), one pass over the level's memory each, with the values of
   // zero, smooth_pair(l, 0), restrict_residual(l) and of prolong_add(l), smooth_pair(l, 1). Each thread walks down
@@ -503,6 +528,35 @@ class CpuPcg {
         x[c] += a * pc[c];
         const T w = 4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c];
         const T rn = r[c] - a * w;
+        r[c] = rn;
+        sum += static_cast<double>(rn) * rn;
+      }
+      rr += sum;
+    }
+    return rr;
+  }
+
+  // --method fmg: z ≈ A⁻¹ r by the full-multigrid F-cycle (full; mg.hpp fmg, r = b after init) or by one
+  // vcycle_solve from z = 0.
+  void solve_cycle(bool full) { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
+
+  // x += z, r -= A z after the F-cycle or a V-cycle (halo() fills z's ghost rows on a distributed block); returns
+  // the local r·r. Reads x, z, r, writes x, r: 5 vectors of N².
+  template <class Halo>
+  double correct(Halo&& halo) {
+    halo(z_.get());
+    const long n = blk_.stride() - 2;
+    double rr = 0;
+#pragma omp parallel for schedule(static) reduction(+ : rr)
+    for (long jl = 0; jl < blk_.rows(); ++jl) {
+      T* __restrict x = blk_.row(blk_.x(), jl);
+      T* __restrict r = blk_.row(blk_.r(), jl);
+      const T *zc = blk_.row(z_.get(), jl), *zu = blk_.row(z_.get(), jl - 1), *zd = blk_.row(z_.get(), jl + 1);
+      double sum = 0;
+#pragma omp simd reduction(+ : sum)
+      for (long c = 1; c <= n; ++c) {
+        x[c] += zc[c];
+        const T rn = r[c] - (4 * zc[c] - zc[c - 1] - zc[c + 1] - zu[c] - zd[c]);
         r[c] = rn;
         sum += static_cast<double>(rn) * rn;
       }
