@@ -59,6 +59,16 @@ hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter)
   return {};
 }
 
+// The bytes a solve of `iterations` moves by the data-movement model: bytes_per_iter each, or with --method fmg
+// (fmg_levels, the F-cycle's vectors per level of mg.hpp, not empty) the F-cycle and its first x += z, r -= Az
+// (5 vectors) as the first iteration.
+double bytes_moved(const std::vector<double>& fmg_levels, long iterations, double bytes_per_iter, double vector) {
+  if (fmg_levels.empty() || iterations == 0) return iterations * bytes_per_iter;
+  double v = 5;
+  for (double l : fmg_levels) v += l;
+  return v * vector + (iterations - 1) * bytes_per_iter;
+}
+
 template <class T>
 int solve(const Args& a) {
   hpcgi::Timer total;
@@ -91,13 +101,8 @@ int solve(const Args& a) {
   const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
   const double per_iter = r.iterations > 0 ? r.solve_s / r.iterations : 0.0;
   const bool fmg = a.cfg.method == "fmg";
-  // fmg: the F-cycle's bytes by level (mg.hpp) and its first x += z, r -= Az (5 vectors), then per V-cycle.
   const std::vector<double> fmg_levels = fmg ? poisson::fmg_vectors_per_level(a.cfg.n) : std::vector<double>();
-  double fmg_vectors = 0;
-  for (double v : fmg_levels) fmg_vectors += v;
-  const double solve_bytes = fmg && r.iterations > 0
-                                 ? (fmg_vectors + 5) * sizeof(T) * n2 + (r.iterations - 1) * bytes_per_iter
-                                 : r.iterations * bytes_per_iter;
+  const double solve_bytes = bytes_moved(fmg_levels, r.iterations, bytes_per_iter, sizeof(T) * n2);
   const double gbps = r.solve_s > 0 ? solve_bytes / r.solve_s / 1e9 : 0.0;
   const double dofs = r.solve_s > 0 ? n2 / r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
 

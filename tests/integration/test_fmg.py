@@ -101,3 +101,32 @@ def test_gpu_fmg_matches_serial(tmp_path, requires_gpu, serial_fmg):
         rec, x = solve(tmp_path, "cuda", "--n", n, "--backend", "cuda", "--method", "fmg")
         assert rec["result"]["iterations"] == serial_fmg[n][0]["result"]["iterations"]
         assert_matches(rec, x, serial_fmg[n])
+
+
+def test_bench_table_sets_fmg_beside_mg_pcg_and_the_dst_solver(tmp_path):
+    """analysis.bench on bench-mg records at N = 64: rows for MG-PCG, FMG and both DST solvers, DOF/s on each."""
+    import os
+    import subprocess
+    import sys
+    from conftest import ROOT
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    res = tmp_path / "results" / "bench-test"
+    p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
+    assert p.returncode == 0, p.stderr
+    for args in (["--precond", "mg"], ["--method", "fmg"]):
+        p = run([BIN / "poisson", "--backend", "openmp", "--n", "64", "--quiet", "--record",
+                 res / "bench-mg/quick.jsonl", *args])
+        assert p.returncode == 0, p.stderr
+    for fft in ("scipy", "fftw"):
+        p = run([sys.executable, "-m", "bench.dst_poisson", "--n", "64", "--fft", fft, "--threads", "1", "--quiet",
+                 "--record", res / "bench-mg/quick.jsonl"], cwd=ROOT)
+        assert p.returncode == 0, p.stderr
+    p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    table = (res / "tables" / "bench_quick.md").read_text()
+    rows = [l for l in table.splitlines() if l.startswith("|") and ("MG-PCG" in l or "FMG" in l or "DST-I" in l)]
+    assert len(rows) == 4, table
+    header = next(l for l in table.splitlines() if l.startswith("|") and "DOF/s" in l)
+    col = [c.strip() for c in header.split("|")].index("DOF/s")
+    assert all(float([c.strip() for c in r.split("|")][col]) > 0 for r in rows), rows
