@@ -34,7 +34,8 @@ class CpuBlock {
   // grid (always zero) from those that hold a neighbour's rows.
   CpuBlock(long n, long y0, long ny)
       : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
-        x_(new T[size_]), r_(new T[size_]), p_(new T[size_]), w_(new T[size_]), b_(new T[size_]) {
+        x_(hpcgi::huge_array<T>(size_)), r_(hpcgi::huge_array<T>(size_)), p_(hpcgi::huge_array<T>(size_)),
+        w_(hpcgi::huge_array<T>(size_)), b_(hpcgi::huge_array<T>(size_)) {
     // First touch of the interior rows in the loop schedule of the kernels; ghost rows and columns are zero.
     auto touch = [this](long jl) {
       for (long c = 0; c < s_; ++c) {
@@ -337,7 +338,7 @@ class CpuBlock {
   Grid g_;
   GridTable tab_;
   long n_, y0_, ny_, s_, size_;
-  std::unique_ptr<T[]> x_, r_, p_, w_, b_;
+  hpcgi::HugeArray<T> x_, r_, p_, w_, b_;  // huge pages where the kernel allows (common/memory.hpp)
   std::vector<Scratch> scratch_;
 };
 

@@ -30,7 +30,6 @@ struct CpuLevel {
   long s;         // n + 2
   T e;            // added to the diagonal of the last row and column (mg.hpp)
   T *x, *b, *r;   // row -1 (the ghost row above) of each vector; rows -1 .. ny, columns 0 .. n+1
-  std::unique_ptr<T[]> own;  // storage of x, b, r on the coarse levels (level 0 borrows the CpuBlock's)
   T* row(T* v, long jl) const { return v + (jl + 1) * s; }
   long n() const { return rows.n; }
   // Threads only where a level is large enough to pay for their start and barrier: a V-cycle runs about ten
@@ -55,18 +54,22 @@ class CpuMg final : public MgLevels {
  public:
   // rows[l] for every level of mg_level_sizes(blk's n); rows[0] is the CpuBlock's. comm may be null (one process,
   // every level whole).
-  CpuMg(CpuBlock<T>& blk, T* z_row_minus1, const std::vector<LevelRows>& rows, MgComm<T>* comm) : comm_(comm) {
+  // The coarse levels' x, b, r (level 0 borrows the CpuBlock's) lie in one allocation, in huge pages where the
+  // kernel allows (common/memory.hpp), each level first touched by its own loop schedule.
+  CpuMg(CpuBlock<T>& blk, T* z_row_minus1, const std::vector<LevelRows>& rows, MgComm<T>* comm)
+      : comm_(comm), coarse_(hpcgi::huge_array<T>(static_cast<size_t>(coarse_values(rows)))) {
     const std::vector<double> edge = mg_edge_terms(rows[0].n);
+    T* next = coarse_.get();
     for (size_t l = 0; l < rows.size(); ++l) {
-      CpuLevel<T> lv{rows[l], rows[l].n + 2, static_cast<T>(edge[l]), nullptr, nullptr, nullptr, nullptr};
+      CpuLevel<T> lv{rows[l], rows[l].n + 2, static_cast<T>(edge[l]), nullptr, nullptr, nullptr};
       if (l == 0) {
         lv.x = z_row_minus1;
         lv.b = blk.row(blk.r(), -1);
         lv.r = blk.row(blk.w(), -1);
       } else {
         const long size = (rows[l].ny + 2) * lv.s;
-        lv.own.reset(new T[3 * size]);
-        T* base = lv.own.get();
+        T* base = next;
+        next += 3 * size;
 #pragma omp parallel for schedule(static) if (lv.threaded())
         for (long jl = -1; jl <= rows[l].ny; ++jl)
           for (long k = 0; k < 3; ++k) std::fill_n(base + k * size + (jl + 1) * lv.s, lv.s, T(0));
@@ -422,6 +425,7 @@ class CpuMg final : public MgLevels {
 
   std::vector<CpuLevel<T>> lv_;
   MgComm<T>* comm_;
+  hpcgi::HugeArray<T> coarse_;
   std::vector<std::vector<T>> rings_;
   double dot0_ = 0;
 };
@@ -432,7 +436,7 @@ template <class T>
 class CpuPcg {
  public:
   CpuPcg(CpuBlock<T>& blk, const std::vector<LevelRows>& rows, MgComm<T>* comm)
-      : blk_(blk), size_(checked_size(blk, rows)), z_(new T[size_]) {
+      : blk_(blk), size_(checked_size(blk, rows)), z_(hpcgi::huge_array<T>(size_)) {
     const long s = blk.stride();
 #pragma omp parallel for schedule(static)
     for (long jl = -CpuBlock<T>::kGhost; jl < blk.rows() + CpuBlock<T>::kGhost; ++jl)
@@ -587,7 +591,7 @@ class CpuPcg {
   }
   CpuBlock<T>& blk_;
   long size_;
-  std::unique_ptr<T[]> z_;
+  hpcgi::HugeArray<T> z_;
   std::unique_ptr<CpuMg<T>> mg_;
 };
 
