@@ -7,6 +7,7 @@
 
 #include <cctype>
 #include <cstdint>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -93,7 +94,11 @@ void* huge_alloc(std::size_t bytes) {
   if (a > lo) munmap(lo, a - lo);
   if (hi > a + len) munmap(a + len, hi - (a + len));
 #ifdef MADV_HUGEPAGE
-  madvise(a, len, MADV_HUGEPAGE);  // a kernel without THP answers EINVAL: 4 KiB pages, as without the call
+  static const bool huge = [] {
+    const char* e = std::getenv("HPCGI_HUGE_PAGES");
+    return e && std::string(e) == "1";
+  }();
+  if (huge) madvise(a, len, MADV_HUGEPAGE);  // a kernel without THP answers EINVAL: 4 KiB pages, as without it
 #endif
   return a;
 }
