@@ -44,7 +44,8 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
  public:
   explicit Mpi(const Config& cfg)
       : rank_(world_rank()), size_(world_size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
-        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), blk_(cfg.n, part_.y0, part_.ny) {
+        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"),
+        blk_(cfg.n, part_.y0, part_.ny, !fmg_) {
     const int active = static_cast<int>(std::min<long>(size_, n_));  // ranks 0..active-1 hold rows
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
     down_ = (rank_ + 1 < active) ? rank_ + 1 : MPI_PROC_NULL;

@@ -15,7 +15,7 @@ template <class T>
 class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
  public:
   explicit OpenMP(const Config& cfg)
-      : onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), blk_(cfg.n, 0, cfg.n) {
+      : onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), blk_(cfg.n, 0, cfg.n, !fmg_) {
     if (!cfg.multigrid()) return;
     std::vector<LevelRows> rows;
     for (long m : mg_level_sizes(cfg.n)) rows.push_back({m, 0, m, true});
