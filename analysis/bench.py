@@ -19,6 +19,8 @@ CG_FRACTION, CG_VS_SCIPY, JACOBI_SLACK, JACOBI_VS_NUMPY, HALF_VS_FLOAT = 0.80, 8
 # Issue 19's: MG-PCG's time to 1e-6 at N = 2048 and 4096 at most 0.5x PETSc CG + BoomerAMG's and below PETSc CG +
 # GAMG's; plain CG per iteration >= 3x PETSc's CG; N = 8192 in at most 10 s.
 MG_VS_HYPRE, CG_VS_PETSC, MG_8192_S = 0.5, 3.0, 10.0
+# Issue 37's: at N = 8191 or 8192, FMG's solve <= 0.5 s and faster than the DST solver's, its setup <= 0.35 s.
+FMG_SOLVE_S, FMG_SETUP_S = 0.5, 0.35
 # Issue 17's: CSR float32 on room3 within 1.25x of its matrix bytes at the read-sweep bandwidth next to it; the
 # compressed storage (compressed or runs) at least 4x faster per Jacobi step than dense float32 on room3, in the same
 # run.
@@ -209,52 +211,94 @@ def rows(preset):
     return out, targets, host, int(stream["params.threads"].iloc[-1]), stream["provenance.cpu_model"].iloc[-1]
 
 
+def _fmg_targets(n, rows_n, fmg_setup):
+    """Issue 37's targets at N = 8191 or 8192: FMG's solve <= 0.5 s and faster than the DST solver's (solve against
+    solve), its setup <= 0.35 s."""
+    fmg = next((r for r in rows_n if "FMG" in r["solver"]), None)
+    dst = [r for r in rows_n if "DST" in r["solver"]]
+    if not fmg or n not in (8191, 8192):
+        return []
+    t = fmg["time to solution (s)"]
+    out = [f"FMG N={n}: solve {t:.3g} s (target <= {FMG_SOLVE_S:g} s): {'met' if t <= FMG_SOLVE_S else 'NOT met'}",
+           f"FMG N={n}: setup {fmg_setup:.3g} s (target <= {FMG_SETUP_S:g} s): "
+           f"{'met' if fmg_setup <= FMG_SETUP_S else 'NOT met'}"]
+    if dst:
+        best = min(dst, key=lambda r: r["time to solution (s)"])
+        x = t / best["time to solution (s)"]
+        out.append(f"FMG N={n}: solve {x:.2f}x that of the fastest DST solver, {best['solver']} (target < 1): "
+                   f"{'met' if x < 1 else 'NOT met'}")
+    return out
+
+
+def _pcg_targets(n, rows_n):
+    """Issue 19's targets: MG-PCG (rows_n[0]) against PETSc + BoomerAMG and + GAMG at N = 2048 and 4096, N = 8192 in
+    10 s, at most 12 iterations."""
+    first, targets = rows_n[0], []
+    t = first["time to solution (s)"]
+    for r in rows_n[1:]:
+        if n in (2048, 4096) and "hypre" in r["solver"]:
+            x = t / r["time to solution (s)"]
+            targets.append(f"MG-PCG N={n}: {t:.3g} s, {x:.2f}x PETSc + BoomerAMG's {r['time to solution (s)']:.3g} "
+                           f"s (target <= {MG_VS_HYPRE}x): {'met' if x <= MG_VS_HYPRE else 'NOT met'}")
+        if n in (2048, 4096) and "GAMG" in r["solver"]:
+            targets.append(f"MG-PCG N={n}: {t:.3g} s against PETSc + GAMG's {r['time to solution (s)']:.3g} "
+                           f"s (target: below): {'met' if t < r['time to solution (s)'] else 'NOT met'}")
+    if n == 8192:
+        targets.append(f"MG-PCG N=8192: {t:.3g} s to 1e-6 in {first['iterations']} iterations (target <= "
+                       f"{MG_8192_S:g} s): {'met' if t <= MG_8192_S else 'NOT met'}")
+    targets.append(f"MG-PCG N={n}: {first['iterations']} iterations (target <= 12): "
+                   f"{'met' if first['iterations'] <= 12 else 'NOT met'}")
+    return targets
+
+
 def mg_rows(preset, host):
-    """The bench-mg table (time to solution, iterations, error, time / ours) and its target lines."""
+    """The bench-mg table (time to solution, iterations, error, DOF/s, time / ours) and its target lines."""
     df = _on(load("bench-mg", preset), host)
     if not len(df):
         return [], []
     precond = df["params.precond"].fillna("none") if "params.precond" in df else pd.Series("none", df.index)
+    method = df["params.method"].fillna("cg") if "params.method" in df else pd.Series("cg", df.index)
     mine, peer = df[df["app"] == "poisson"], df[df["app"] == "peer"]
     out, targets = [], []
 
     def entry(name, recs, ours_t=None):
         t, it = _median(recs, "times_s.solve"), int(recs["result.iterations"].median())
         setup = recs["times_s.setup"] + (recs["times_s.pc_setup"].fillna(0) if "times_s.pc_setup" in recs else 0)
+        n = float(recs["params.n"].iloc[0])
         return {"solver": name, "iterations": it, "time to solution (s)": t,
                 "ms per iteration": 1e3 * _median(recs, "times_s.per_iteration"),
-                "setup (s)": float(setup.fillna(0).median()), "error ‖u − u_h‖∞": _median(recs, "result.error_inf"),
+                "setup (s)": float(setup.fillna(0).median()), "DOF/s": n * n / t if t > 0 else None,
+                "error ‖u − u_h‖∞": _median(recs, "result.error_inf"),
                 "time / ours": t / ours_t if ours_t else 1.0, "repeats": len(recs)}
 
     for n in sorted(df["params.n"].unique()):
         cap = lambda r: r["params.max_iter"] < max(1000, 4 * n)  # noqa: E731  capped runs: per iteration only
-        o = mine[(mine["params.n"] == n) & (precond[mine.index] == "mg")]
-        if len(o):
-            first = entry(f"ours: openmp MG-PCG, {int(o['params.threads'].iloc[0])} threads", o)
-            rows_n = [first]
+        at_n = mine["params.n"] == n
+        o = mine[at_n & (precond[mine.index] == "mg") & (method[mine.index] == "cg")]
+        f = mine[at_n & (method[mine.index] == "fmg")]
+        ours = [(f"ours: openmp MG-PCG, {int(r['params.threads'].iloc[0])} threads", r) for r in (o,) if len(r)]
+        ours += [(f"ours: openmp FMG, then V-cycles, {int(r['params.threads'].iloc[0])} threads", r) for r in (f,)
+                 if len(r)]
+        if ours:
+            first = entry(*ours[0])
+            rows_n = [first] + [entry(name, r, first["time to solution (s)"]) for name, r in ours[1:]]
             for pc in ("hypre", "gamg"):
                 p = peer[(peer["params.n"] == n) & (peer["params.precond"] == pc)]
                 if len(p):
                     rows_n.append(entry(f"{PETSC[pc]}, {int(p['params.ranks'].iloc[0])} ranks", p,
                                         first["time to solution (s)"]))
+            for fft, lib in (("scipy", "scipy.fft"), ("fftw", "FFTW RODFT00")):
+                p = peer[(peer["params.n"] == n) & (peer["params.peer"] == f"dst-{fft}")]
+                if len(p):
+                    rows_n.append(entry(f"DST-I direct solver ({lib}), {int(p['params.threads'].iloc[0])} threads",
+                                        p, first["time to solution (s)"]))
             for k, r in enumerate(rows_n):
                 out.append({"problem": f"Poisson to 1e-6, N={n}" if k == 0 else "", **r})
-            t = first["time to solution (s)"]
-            for r in rows_n[1:]:
-                if n in (2048, 4096) and "hypre" in r["solver"]:
-                    x = t / r["time to solution (s)"]
-                    targets.append(f"MG-PCG N={n}: {t:.3g} s, {x:.2f}x PETSc + BoomerAMG's {r['time to solution (s)']:.3g} "
-                                   f"s (target <= {MG_VS_HYPRE}x): {'met' if x <= MG_VS_HYPRE else 'NOT met'}")
-                if n in (2048, 4096) and "GAMG" in r["solver"]:
-                    targets.append(f"MG-PCG N={n}: {t:.3g} s against PETSc + GAMG's {r['time to solution (s)']:.3g} "
-                                   f"s (target: below): {'met' if t < r['time to solution (s)'] else 'NOT met'}")
-            if n == 8192:
-                targets.append(f"MG-PCG N=8192: {t:.3g} s to 1e-6 in {first['iterations']} iterations (target <= "
-                               f"{MG_8192_S:g} s): {'met' if t <= MG_8192_S else 'NOT met'}")
-            targets.append(f"MG-PCG N={n}: {first['iterations']} iterations (target <= 12): "
-                           f"{'met' if first['iterations'] <= 12 else 'NOT met'}")
+            targets += _fmg_targets(n, rows_n, float(f["times_s.setup"].median()) if len(f) else 0.0)
+        if len(o):
+            targets += _pcg_targets(n, rows_n)
         # Plain CG: ours against PETSc's, full solves (iterations must agree) or capped (time per iteration).
-        o = mine[(mine["params.n"] == n) & (precond[mine.index] == "none")]
+        o = mine[at_n & (precond[mine.index] == "none") & (method[mine.index] == "cg")]
         p = peer[(peer["params.n"] == n) & (peer["params.precond"] == "none")]
         if len(o) and len(p):
             mine_e = entry(f"ours: openmp CG {o['params.variant'].iloc[0]}, {int(o['params.threads'].iloc[0])} threads", o)
@@ -297,11 +341,14 @@ def write(preset):
             f"same problem (peer/ours, > 1: ours is faster).")
     text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
     if mg_out:
-        text += (f"\n#### Multigrid-preconditioned CG against PETSc and hypre ({preset})\n\nTime to solution: the "
-                 f"solve alone (ours: the CG iterations with their V-cycles; PETSc: ksp.solve after ksp.setUp, whose "
-                 f"AMG setup is in setup with the assembly); ours on {threads} OpenMP threads, PETSc on as many MPI "
-                 f"ranks; medians over the repeats, which slurm/bench runs in rounds so ours and the peers "
-                 f"alternate. time / ours: peer over ours (> 1: ours is faster); for plain CG per iteration.\n\n"
+        text += (f"\n#### Multigrid against PETSc, hypre and the direct solver ({preset})\n\nTime to solution: the "
+                 f"solve alone (ours: the CG iterations with their V-cycles, or FMG's F-cycle and V-cycles; PETSc: "
+                 f"ksp.solve after ksp.setUp, whose AMG setup is in setup with the assembly; the DST solver: its two "
+                 f"transforms and the division, after making b and the plan); ours on {threads} OpenMP threads, "
+                 f"PETSc on as many MPI ranks, the DST solver on as many threads; medians over the repeats, which "
+                 f"slurm/bench runs in rounds so ours and the peers alternate. DOF/s: N² over the time to solution "
+                 f"(HPGMG's figure). time / ours: over our first row (> 1: ours is faster); for plain CG per "
+                 f"iteration.\n\n"
                  + markdown(mg_out, ".4g") + "\n\n"
                  + "".join(f"- {t}\n" for t in mg_targets))
     if sp_out:

@@ -1,8 +1,13 @@
 #include "common/memory.hpp"
 
+#include <sys/mman.h>
 #include <unistd.h>
 
+#include <new>
+
 #include <cctype>
+#include <cstdint>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -70,6 +75,36 @@ void require_host_memory(const std::string& who, double bytes) {
   std::snprintf(buf, sizeof buf, "%s needs %.2f GiB of memory, and this machine has %.2f GiB available",
                 who.c_str(), bytes / (1 << 30), avail / (1 << 30));
   throw UsageError(buf);
+}
+
+namespace {
+constexpr std::size_t kHugePage = std::size_t(2) << 20, kPage = 4096;
+std::size_t whole_pages(std::size_t bytes) { return (bytes + kPage - 1) / kPage * kPage; }
+}  // namespace
+
+// The mapping is made 2 MiB larger, and its head and tail beyond a 2 MiB-aligned start are given back, so that
+// the array's huge pages start where the array does.
+void* huge_alloc(std::size_t bytes) {
+  const std::size_t len = whole_pages(bytes);
+  void* raw = mmap(nullptr, len + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (raw == MAP_FAILED) throw std::bad_alloc();
+  char* const lo = static_cast<char*>(raw);
+  char* const hi = lo + len + kHugePage;
+  char* const a = lo + (kHugePage - reinterpret_cast<std::uintptr_t>(lo) % kHugePage) % kHugePage;
+  if (a > lo) munmap(lo, a - lo);
+  if (hi > a + len) munmap(a + len, hi - (a + len));
+#ifdef MADV_HUGEPAGE
+  static const bool huge = [] {
+    const char* e = std::getenv("HPCGI_HUGE_PAGES");
+    return e && std::string(e) == "1";
+  }();
+  if (huge) madvise(a, len, MADV_HUGEPAGE);  // a kernel without THP answers EINVAL: 4 KiB pages, as without it
+#endif
+  return a;
+}
+
+void huge_free(void* p, std::size_t bytes) noexcept {
+  if (p) munmap(p, whole_pages(bytes));
 }
 
 }  // namespace hpcgi

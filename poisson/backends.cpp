@@ -40,8 +40,10 @@ const BackendEntry& entry(const std::string& name) {
 }
 }  // namespace
 
-std::string default_variant(const std::string& backend, const std::string& precision, const std::string& precond) {
-  return entry(backend).onesweep && precision == "double" && precond == "none" ? "onesweep" : "classic";
+std::string default_variant(const std::string& backend, const std::string& precision, const std::string& precond,
+                            const std::string& method) {
+  return entry(backend).onesweep && precision == "double" && precond == "none" && method == "cg" ? "onesweep"
+                                                                                                 : "classic";
 }
 
 template <class T>
@@ -54,6 +56,12 @@ std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg) {
   if (cfg.precond != "none" && !(cfg.precond == "mg" && e->mg))
     throw hpcgi::UsageError("backend '" + cfg.backend + "' has no preconditioner '" + cfg.precond + "'" +
                             (e->mg ? " (none or mg)" : " (none only)"));
+  if (cfg.method == "fmg" && !e->mg)
+    throw hpcgi::UsageError("backend '" + cfg.backend + "' has no method 'fmg': it has no multigrid level kernels "
+                            "(serial, openmp, mpi and cuda have)");
+  if (cfg.method == "fmg" && (cfg.precond != "none" || cfg.variant != "classic"))
+    throw hpcgi::UsageError("--method fmg is full multigrid, then V-cycles, not CG: it takes no --precond or "
+                            "--variant (leave them out)");
   if (cfg.precond == "mg" && cfg.variant != "classic")
     throw hpcgi::UsageError("--precond mg runs preconditioned CG, which has no variant '" + cfg.variant +
                             "' (leave --variant out, or --variant classic)");

@@ -174,6 +174,27 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   return res;
 }
 
+// --method fmg: the full-multigrid F-cycle (mg.hpp fmg) as the first iteration, then V-cycles, each followed by
+// x += z, r -= A z (correct()), until the same stopping test as CG's, ‖r‖/‖r₀‖ <= tol with the recursive r. An
+// iteration is one fine-grid V-cycle (the F-cycle runs one on the fine grid, and about 1/3 of one below it).
+template <class T>
+CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, const CgProgress& progress = nullptr) {
+  CgResult res;
+  hpcgi::Timer t;
+  const double rr0 = k.init();
+  res.init_s = t.seconds();
+  t.reset();
+  res.status = rr0 == 0.0 ? "converged" : "max_iter";
+  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+    m.solve_cycle(it == 1);
+    const double rr = m.correct();
+    res.iterations = it;
+    if (!detail::rr_ok(res, rr, it) || detail::reached(res, rr, rr0, it, tol, progress)) break;
+  }
+  detail::finish(k, res, rr0, t);
+  return res;
+}
+
 // Runs the variant the backend was made for (cfg.variant; make_kernels refused a variant it does not have).
 template <class T>
 CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long max_iter,
@@ -184,12 +205,17 @@ CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long
   return run_cg_onesweep(*s, tol, max_iter, progress);
 }
 
-// Runs what cfg asks for: with cfg.precond == "mg" the preconditioned CG, otherwise cfg.variant.
+// Runs what cfg asks for: with cfg.method == "fmg" full multigrid, with cfg.precond == "mg" the preconditioned
+// CG, otherwise cfg.variant.
 template <class T>
 CgResult run_config(Kernels<T>& k, const Config& cfg, double tol, long max_iter,
                     const CgProgress& progress = nullptr) {
-  if (cfg.precond == "none") return run_variant(k, cfg.variant, tol, max_iter, progress);
   auto* m = dynamic_cast<Preconditioned*>(&k);
+  if (cfg.method == "fmg") {
+    if (!m) throw hpcgi::UsageError("this backend has no method 'fmg'");
+    return run_fmg(k, *m, tol, max_iter, progress);
+  }
+  if (cfg.precond == "none") return run_variant(k, cfg.variant, tol, max_iter, progress);
   if (cfg.precond != "mg" || !m) throw hpcgi::UsageError("this backend has no preconditioner '" + cfg.precond + "'");
   return run_pcg(k, *m, tol, max_iter, progress);
 }

@@ -31,15 +31,19 @@ template <class T>
 class CpuBlock {
  public:
   // Rows [y0, y0 + ny) of the N×N grid, N = n: the one-sweep variant needs y0 to tell the ghost rows outside the
-  // grid (always zero) from those that hold a neighbour's rows.
-  CpuBlock(long n, long y0, long ny)
-      : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny)),
-        x_(new T[size_]), r_(new T[size_]), p_(new T[size_]), w_(new T[size_]), b_(new T[size_]) {
+  // grid (always zero) from those that hold a neighbour's rows. Without with_p (--method fmg, which has no search
+  // direction) p is neither allocated nor touched, and calc_w, calc_ur, calc_p, r_Ar, sweep must not be called.
+  CpuBlock(long n, long y0, long ny, bool with_p = true)
+      : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny, with_p)),
+        x_(hpcgi::huge_array<T>(size_)), r_(hpcgi::huge_array<T>(size_)),
+        p_(with_p ? hpcgi::huge_array<T>(size_) : nullptr), w_(hpcgi::huge_array<T>(size_)),
+        b_(hpcgi::huge_array<T>(size_)) {
     // First touch of the interior rows in the loop schedule of the kernels; ghost rows and columns are zero.
     auto touch = [this](long jl) {
       for (long c = 0; c < s_; ++c) {
         const long k = (jl + kGhost) * s_ + c;
-        x_[k] = r_[k] = p_[k] = w_[k] = 0;
+        x_[k] = r_[k] = w_[k] = 0;
+        if (p_) p_[k] = 0;
         const long i = c - 1, j = y0_ + jl;
         b_[k] = (jl >= 0 && jl < ny_ && i >= 0 && i < n_) ? static_cast<T>(tab_.b(i, j)) : T(0);
       }
@@ -67,13 +71,14 @@ class CpuBlock {
     double rr = 0;
 #pragma omp parallel for schedule(static) reduction(+ : rr)
     for (long jl = 0; jl < ny_; ++jl) {
-      T *x = row(x_.get(), jl), *r = row(r_.get(), jl), *p = row(p_.get(), jl), *b = row(b_.get(), jl);
+      T *x = row(x_.get(), jl), *r = row(r_.get(), jl), *b = row(b_.get(), jl);
 #pragma omp simd reduction(+ : rr)
       for (long c = 1; c <= n_; ++c) {
         x[c] = 0;
-        r[c] = p[c] = b[c];
+        r[c] = b[c];
         rr += static_cast<double>(b[c]) * b[c];
       }
+      if (p_) std::copy(b + 1, b + 1 + n_, row(p_.get(), jl) + 1);  // p = b (the row of b is in cache)
     }
     return rr;
   }
@@ -326,18 +331,18 @@ class CpuBlock {
     rar += s_rar;
   }
 
-  // (ny + 4)(n + 2) values per vector; refuses a block whose 5 vectors will not fit in memory.
-  static long checked_size(long n, long ny) {
+  // (ny + 4)(n + 2) values per vector; refuses a block whose 5 (or 4, without p) vectors will not fit in memory.
+  static long checked_size(long n, long ny, bool with_p) {
     const long size = (ny + 2 * kGhost) * (n + 2);
     hpcgi::require_host_memory("N = " + std::to_string(n) + " (" + std::to_string(ny) + " rows here)",
-                               5.0 * sizeof(T) * static_cast<double>(size));
+                               (with_p ? 5.0 : 4.0) * sizeof(T) * static_cast<double>(size));
     return size;
   }
 
   Grid g_;
   GridTable tab_;
   long n_, y0_, ny_, s_, size_;
-  std::unique_ptr<T[]> x_, r_, p_, w_, b_;
+  hpcgi::HugeArray<T> x_, r_, p_, w_, b_;  // common/memory.hpp; p_ null without with_p
   std::vector<Scratch> scratch_;
 };
 

@@ -6,6 +6,7 @@
 //   onesweep: one kernel per iteration (sweep_kernel): read r, p, x, write r, p, x: 6 vectors, plus the halo
 //             rows and columns each tile recomputes.
 //   --precond mg: classic with z = M⁻¹ r by the level kernels of mg_cuda.cuh, [r·z] and [p = z + βp].
+//   --method fmg: the F-cycle of mg.hpp on the same level kernels, then V-cycles, [w = Az], [x += z, r -= w, r·r].
 #include <memory>
 
 #include "poisson/backends.hpp"
@@ -153,7 +154,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
 
  public:
   explicit Cuda(const Config& cfg)
-      : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), sum_(2), host_sum_(2) {
+      : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), sum_(2), host_sum_(2) {
     int dev = 0, sms = 0;
     CUDA_CHECK(cudaGetDevice(&dev));
     CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
@@ -166,7 +167,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
       p_spare_ = std::make_unique<hpcgi::DeviceArray<T>>(B::size_);
       CUDA_CHECK(cudaMemset(p_spare_->get(), 0, B::size_ * sizeof(T)));
     }
-    if (cfg.precond == "mg") {
+    if (cfg.multigrid()) {
       hpcgi::require_device_memory("backend cuda --precond mg at N = " + std::to_string(B::n_),
                                    static_cast<double>(B::size_) * sizeof(T) + GpuMg<T>::coarse_bytes(B::n_));
       z_ = std::make_unique<hpcgi::DeviceArray<T>>(B::size_);
@@ -179,6 +180,18 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
     vcycle(*mg_);
     zero();
     dot_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, B::r_.get(), z_->get(), sum_.get());
+    CUDA_CHECK_LAUNCH();
+    return fetch(1)[0];
+  }
+  void solve_cycle(bool full) override { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
+  // x += z, r -= A z, r·r: the classic kernels with p = z, w = A z (w is level 0's residual, free here), α = 1.
+  double correct() override {
+    zero();
+    calc_w_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, z_->get(), B::w_.get(), sum_.get());
+    CUDA_CHECK_LAUNCH();
+    zero();
+    calc_ur_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, T(1), z_->get(), B::w_.get(), B::x_.get(), B::r_.get(),
+                                           sum_.get());
     CUDA_CHECK_LAUNCH();
     return fetch(1)[0];
   }
@@ -249,7 +262,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
   }
 
   int vectors_per_iteration() const override {
-    return mg_ ? 11 + 2 + mg_vectors_per_cycle(B::n_) : onesweep_ ? 6 : 11;
+    return mg_ ? (fmg_ ? 7 : 11 + 2) + mg_vectors_per_cycle(B::n_) : onesweep_ ? 6 : 11;
   }
   std::map<std::string, std::string> info() const override {
     auto i = B::info();
@@ -264,7 +277,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
     CUDA_CHECK(cudaStreamSynchronize(0));
     return host_sum_.get();
   }
-  bool onesweep_;
+  bool onesweep_, fmg_;
   hpcgi::DeviceArray<double> sum_;
   hpcgi::PinnedArray<double> host_sum_;  // an owner: freed when p_spare_'s allocation below it throws
   unsigned blocks_ = 1;

@@ -24,6 +24,9 @@ struct Config {
   int threads = 0;                   // 0: the OpenMP default (OMP_NUM_THREADS or all cores)
   std::string variant = "classic";   // classic | onesweep (see above)
   std::string precond = "none";      // none | mg: CG preconditioned by one multigrid V-cycle (mg.hpp)
+  std::string method = "cg";         // cg | fmg: full multigrid, then V-cycles (mg.hpp fmg, cg.hpp run_fmg)
+  // Whether the backend holds z and the multigrid hierarchy: for --precond mg and for --method fmg.
+  bool multigrid() const { return precond == "mg" || method == "fmg"; }
 };
 
 template <class T>
@@ -69,7 +72,8 @@ class OneSweepKernels : public Kernels<T> {
 };
 
 // A backend that also runs CG preconditioned by one multigrid V-cycle (--precond mg, cg.hpp's run_pcg) derives
-// from this as well; it holds z and the grid hierarchy of mg.hpp only when it was made with cfg.precond == "mg".
+// from this as well; it holds z and the grid hierarchy of mg.hpp only when it was made with cfg.precond == "mg" or
+// cfg.method == "fmg" (Config::multigrid).
 class Preconditioned {
  public:
   virtual ~Preconditioned() = default;
@@ -83,6 +87,11 @@ class Preconditioned {
   virtual bool fused_updates() const { return false; }
   virtual double calc_p_pw(double /*beta*/) { return 0; }
   virtual double calc_ur_p(double /*alpha*/) { return 0; }
+  // --method fmg (cg.hpp run_fmg) on the same hierarchy: solve_cycle(true) makes z ≈ A⁻¹ r by the full-multigrid
+  // F-cycle (mg.hpp fmg; r = b after init), solve_cycle(false) by one solver V-cycle from z = 0 (mg.hpp
+  // vcycle_solve); correct() then x += z, r -= A z and returns r·r.
+  virtual void solve_cycle(bool full) = 0;
+  virtual double correct() = 0;
   // Grid sizes of the hierarchy, finest first (for the record).
   virtual std::vector<long> mg_sizes() const = 0;
   // y·(M⁻¹x) for whole-grid vectors given as functions of the point (i, j): r = x (this rank's rows), z = M⁻¹ r,
@@ -107,9 +116,10 @@ const std::vector<BackendEntry>& backends();
 // instead of 11, the same iterations and solution), classic elsewhere. In float, onesweep's recurrence for p·Ap
 // loses accuracy as the float vectors lose conjugacy: it takes 10-25% more iterations (N = 128..512), so float
 // keeps classic. Throws hpcgi::UsageError for an unknown backend.
-// With a preconditioner (precond != "none") it is classic: preconditioned CG has the classic shape.
+// With a preconditioner (precond != "none") it is classic: preconditioned CG has the classic shape; with
+// method fmg too (the variant does not apply, and the record says classic).
 std::string default_variant(const std::string& backend, const std::string& precision,
-                            const std::string& precond = "none");
+                            const std::string& precond = "none", const std::string& method = "cg");
 
 // Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
 // this binary, one whose hardware is absent (a CUDA backend on a machine without a GPU), or a variant the backend

@@ -59,6 +59,16 @@ hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter)
   return {};
 }
 
+// The bytes a solve of `iterations` moves by the data-movement model: bytes_per_iter each, or with --method fmg
+// (fmg_levels, the F-cycle's vectors per level of mg.hpp, not empty) the F-cycle and its first x += z, r -= Az
+// (5 vectors) as the first iteration.
+double bytes_moved(const std::vector<double>& fmg_levels, long iterations, double bytes_per_iter, double vector) {
+  if (fmg_levels.empty() || iterations == 0) return iterations * bytes_per_iter;
+  double v = 5;
+  for (double l : fmg_levels) v += l;
+  return v * vector + (iterations - 1) * bytes_per_iter;
+}
+
 template <class T>
 int solve(const Args& a) {
   hpcgi::Timer total;
@@ -90,7 +100,11 @@ int solve(const Args& a) {
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
   const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
   const double per_iter = r.iterations > 0 ? r.solve_s / r.iterations : 0.0;
-  const double gbps = per_iter > 0 ? bytes_per_iter / per_iter / 1e9 : 0.0;
+  const bool fmg = a.cfg.method == "fmg";
+  const std::vector<double> fmg_levels = fmg ? poisson::fmg_vectors_per_level(a.cfg.n) : std::vector<double>();
+  const double solve_bytes = bytes_moved(fmg_levels, r.iterations, bytes_per_iter, sizeof(T) * n2);
+  const double gbps = r.solve_s > 0 ? solve_bytes / r.solve_s / 1e9 : 0.0;
+  const double dofs = r.solve_s > 0 ? n2 / r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
 
   nlohmann::json rec = hpcgi::record::make("poisson");
   rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"variant", a.cfg.variant},
@@ -99,6 +113,7 @@ int solve(const Args& a) {
                    {"steps", a.steps},     {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
                    {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
   rec["params"]["precond"] = a.cfg.precond;
+  rec["params"]["method"] = a.cfg.method;
   if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
   rec["result"] = {{"status", r.status},
                    {"converged", r.status == "converged"},
@@ -110,7 +125,7 @@ int solve(const Args& a) {
                    {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
   if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
   hpcgi::record::set_outcome(rec, outcome);
-  const std::vector<long> sizes = a.cfg.precond == "mg" && pre ? pre->mg_sizes() : std::vector<long>();
+  const std::vector<long> sizes = a.cfg.multigrid() && pre ? pre->mg_sizes() : std::vector<long>();
   if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
   if (a.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
   rec["times_s"] = {{"setup", alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", per_iter},
@@ -118,20 +133,25 @@ int solve(const Args& a) {
   rec["perf"] = {{"vectors_per_iteration", k->vectors_per_iteration()},
                  {"bytes_per_iteration", bytes_per_iter},
                  {"bandwidth_GBps", gbps},
+                 {"solve_bytes", solve_bytes},
+                 {"dof_per_s", dofs},
                  {"timer", a.cfg.backend.rfind("cu", 0) == 0 ? "host wall clock, device synchronised" : "host wall clock"}};
+  if (fmg) rec["perf"]["fmg_vectors_per_level"] = fmg_levels;
   rec["backend_info"] = info;
 
   if (!a.quiet) {
-    std::printf("poisson: N=%ld backend=%s variant=%s precond=%s precision=%s", a.cfg.n, a.cfg.backend.c_str(),
-                a.cfg.variant.c_str(), a.cfg.precond.c_str(), a.precision.c_str());
+    std::printf("poisson: N=%ld backend=%s method=%s variant=%s precond=%s precision=%s", a.cfg.n,
+                a.cfg.backend.c_str(), a.cfg.method.c_str(), a.cfg.variant.c_str(), a.cfg.precond.c_str(),
+                a.precision.c_str());
     for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
     std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
                 r.status.c_str(), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
-    std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %d vectors of N^2 -> %.2f GB/s)\n",
-                alloc_s + r.init_s, r.solve_s, per_iter * 1e3, k->vectors_per_iteration(), gbps);
+    std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %.4g vectors of N^2 -> %.2f GB/s, "
+                "%.4g DOF/s)\n", alloc_s + r.init_s, r.solve_s, per_iter * 1e3, solve_bytes / (sizeof(T) * n2),
+                gbps, dofs);
     if (!sizes.empty())
-      std::printf("  multigrid: %zu levels, N = %ld down to %ld, V(1,1) red-black Gauss-Seidel\n", sizes.size(),
-                  sizes.front(), sizes.back());
+      std::printf("  multigrid: %zu levels, N = %ld down to %ld, %sV(1,1) red-black Gauss-Seidel\n", sizes.size(),
+                  sizes.front(), sizes.back(), fmg ? "F-cycle of " : "");
     if (a.check_symmetry)
       std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", asymmetry);
     if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
@@ -153,7 +173,7 @@ std::string backend_help() {
   for (const auto& b : poisson::backends()) {
     s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary +
          (b.onesweep ? " [variants: onesweep (default in double), classic]" : " [variant: classic]") +
-         (b.mg ? " [precond: none, mg]" : " [precond: none]");
+         (b.mg ? " [precond: none, mg] [method: cg, fmg]" : " [precond: none] [method: cg]");
     if (!b.built) s += " [NOT BUILT: " + b.why_not + "]";
     s += "\n";
   }
@@ -188,6 +208,12 @@ int main(int argc, char** argv) {
                  "Gauss-Seidel forward before and backward after the coarse correction, full weighting, bilinear "
                  "prolongation); backends serial, openmp, mpi, cuda")
       ->check(CLI::IsMember({"none", "mg"}))->capture_default_str();
+  app.add_option("--method", a.cfg.method,
+                 "cg: conjugate gradients (--variant, --precond); fmg: full multigrid, not CG: one F-cycle from the "
+                 "coarsest grid up (the V-cycle's smoother and transfers of --precond mg, one V-cycle per level from "
+                 "the interpolated coarser solution), then V-cycles until the same ||r||/||r0|| <= tol; an iteration "
+                 "is one fine-grid V-cycle; backends serial, openmp, mpi, cuda")
+      ->check(CLI::IsMember({"cg", "fmg"}))->capture_default_str();
   app.add_flag("--check-symmetry", a.check_symmetry,
                "with --precond mg: before the solve, compare (M^-1 x).y with x.(M^-1 y) for random x, y (printed and "
                "recorded as result.mg_asymmetry)");
@@ -199,7 +225,8 @@ int main(int argc, char** argv) {
   app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");
   app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
              "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n"
-             "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n\n" + hpcgi::exit_status_help() +
+             "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n"
+             "  bin/poisson --n 8191 --backend openmp --threads 2 --method fmg\n\n" + hpcgi::exit_status_help() +
              "(bin/poisson has no float64 check: status 5 is bin/radiosity's.)\n");
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
@@ -209,7 +236,8 @@ int main(int argc, char** argv) {
     hpcgi::check_tolerance(a.tol, a.precision);
     hpcgi::check_threads(a.cfg.threads);
     hpcgi::files::check_outputs({{a.record_path, "--record", true}, {a.solution_path, "--solution"}}, {});
-    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision, a.cfg.precond) : a.variant;
+    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision, a.cfg.precond, a.cfg.method)
+                                    : a.variant;
     const bool mpi = a.cfg.backend == "mpi";
     if (a.check_symmetry && a.cfg.precond != "mg")
       throw hpcgi::UsageError("--check-symmetry checks the multigrid preconditioner: it needs --precond mg");

@@ -105,6 +105,17 @@ class MgLevels {
     prolong_add(l);
     smooth_pair(l, 1);
   }
+  // The full multigrid's own steps (fmg below); a backend may do each in one pass (mg_cpu.hpp).
+  // b_{l+1} = Pᵀ b_l: the right-hand side restricted (x_l is overwritten).
+  virtual void restrict_rhs(int l) {
+    zero(l);
+    restrict_residual(l);
+  }
+  // x_l = P x_{l+1}: the coarse solution interpolated as the start of level l's V-cycle.
+  virtual void interpolate(int l) {
+    zero(l);
+    prolong_add(l);
+  }
 };
 
 // x_0 = M⁻¹ b_0: one V(1,1)-cycle from x = 0 on levels l .. levels()-1.
@@ -117,6 +128,72 @@ inline void vcycle(MgLevels& k, int l = 0) {
   k.presmooth_restrict(l);  // x = 0, red, then black, restriction of the residual
   vcycle(k, l + 1);
   k.prolong_postsmooth(l);  // prolongation, black, then red
+}
+
+// The V(1,1)-cycle of a multigrid solver (--method fmg) on levels l .. levels()-1, from x_l = 0 (from_zero) or
+// from the current x_l: red, black, b_{l+1} = Pᵀ (b_l - A x_l), the same cycle from zero below, x_l += P x_{l+1},
+// then red, black again. The smoother and transfers of vcycle, but after the coarse correction red before black,
+// not Sᵀ: with vcycle's symmetric order (which CG needs) a cycle's last red and the next cycle's first red follow
+// one another on the fine grid, the second changing nothing, so it smooths one and a half sweeps per cycle, this
+// one two; as a stationary iteration the symmetric cycle reduced ‖r‖ by about 0.25 per cycle, this one by about
+// 0.075 (N = 255, 1023).
+inline void vcycle_solve(MgLevels& k, int l, bool from_zero) {
+  if (l == k.levels() - 1) {  // n = 1: exact
+    k.zero(l);
+    k.smooth(l, 0);
+    return;
+  }
+  if (from_zero) {
+    k.presmooth_restrict(l);
+  } else {
+    k.smooth_pair(l, 0);
+    k.restrict_residual(l);
+  }
+  vcycle_solve(k, l + 1, true);
+  k.prolong_add(l);
+  k.smooth_pair(l, 0);
+}
+
+// x_0 ≈ A⁻¹ b_0 by one full-multigrid F-cycle (--method fmg): b restricted down to the coarsest level, solved
+// there exactly, then on each finer level the coarser solution interpolated bilinearly (P) and one V-cycle from
+// it (vcycle_solve). The V-cycle's smoother and transfers throughout; b_0 is read only, every coarser b and every x
+// is overwritten. On level l the work is about 4/3 of a V-cycle on level l, in all about 4/3 of a fine V-cycle.
+inline void fmg(MgLevels& k) {
+  const int last = k.levels() - 1;
+  for (int l = 0; l < last; ++l) k.restrict_rhs(l);
+  k.zero(last);
+  k.smooth(last, 0);
+  for (int l = last - 1; l >= 0; --l) {
+    k.interpolate(l);
+    vcycle_solve(k, l, false);
+  }
+}
+
+// The data-movement model of --method fmg with the level kernels of mg_cpu.hpp, in vectors of N². vcycle_solve
+// from zero on a level: presmooth_restrict (2.25), prolong_add (read and write x, read a quarter: 2.25),
+// smooth_pair (read x and b, write x: 3): 7.5; from the current x: smooth_pair 3 and restrict_residual (read x and
+// b, write r, read r, write a quarter: 4.25) in place of presmooth_restrict: 12.5. The F-cycle, on each level l but
+// the coarsest: restrict_rhs (read b, write a quarter: 1.25), interpolate (read a quarter, write x: 1.25), the
+// cycle from x (12.5) and the cycles from zero below it (7.5 on each coarser level). Each scaled by (n_l / N)².
+inline constexpr double kSolveCycleFromZero = 7.5, kSolveCycleFromX = 12.5, kFmgTransfers = 2.5;
+
+// Vectors of N² of one vcycle_solve from zero on the whole hierarchy.
+inline double mg_solve_vectors_per_cycle(long n) {
+  double v = 0;
+  for (long m : mg_level_sizes(n)) v += kSolveCycleFromZero * (static_cast<double>(m) / n) * (static_cast<double>(m) / n);
+  return v;
+}
+
+// Vectors of N² the F-cycle moves on each level, finest first (its total is their sum).
+inline std::vector<double> fmg_vectors_per_level(long n) {
+  const std::vector<long> s = mg_level_sizes(n);
+  std::vector<double> v(s.size(), 0.0);
+  auto w = [n](long m) { return (static_cast<double>(m) / n) * (static_cast<double>(m) / n); };
+  for (size_t l = 0; l + 1 < s.size(); ++l) {
+    v[l] += (kFmgTransfers + kSolveCycleFromX) * w(s[l]);
+    for (size_t m = l + 1; m < s.size(); ++m) v[m] += kSolveCycleFromZero * w(s[m]);
+  }
+  return v;
 }
 
 // A value in [-1, 1) for point (i, j) of an n×n grid, the same on every rank and backend (splitmix64 of the index).

@@ -30,7 +30,6 @@ struct CpuLevel {
   long s;         // n + 2
   T e;            // added to the diagonal of the last row and column (mg.hpp)
   T *x, *b, *r;   // row -1 (the ghost row above) of each vector; rows -1 .. ny, columns 0 .. n+1
-  std::unique_ptr<T[]> own;  // storage of x, b, r on the coarse levels (level 0 borrows the CpuBlock's)
   T* row(T* v, long jl) const { return v + (jl + 1) * s; }
   long n() const { return rows.n; }
   // Threads only where a level is large enough to pay for their start and barrier: a V-cycle runs about ten
@@ -55,18 +54,22 @@ class CpuMg final : public MgLevels {
  public:
   // rows[l] for every level of mg_level_sizes(blk's n); rows[0] is the CpuBlock's. comm may be null (one process,
   // every level whole).
-  CpuMg(CpuBlock<T>& blk, T* z_row_minus1, const std::vector<LevelRows>& rows, MgComm<T>* comm) : comm_(comm) {
+  // The coarse levels' x, b, r (level 0 borrows the CpuBlock's) lie in one allocation, in huge pages where the
+  // kernel allows (common/memory.hpp), each level first touched by its own loop schedule.
+  CpuMg(CpuBlock<T>& blk, T* z_row_minus1, const std::vector<LevelRows>& rows, MgComm<T>* comm)
+      : comm_(comm), coarse_(hpcgi::huge_array<T>(static_cast<size_t>(coarse_values(rows)))) {
     const std::vector<double> edge = mg_edge_terms(rows[0].n);
+    T* next = coarse_.get();
     for (size_t l = 0; l < rows.size(); ++l) {
-      CpuLevel<T> lv{rows[l], rows[l].n + 2, static_cast<T>(edge[l]), nullptr, nullptr, nullptr, nullptr};
+      CpuLevel<T> lv{rows[l], rows[l].n + 2, static_cast<T>(edge[l]), nullptr, nullptr, nullptr};
       if (l == 0) {
         lv.x = z_row_minus1;
         lv.b = blk.row(blk.r(), -1);
         lv.r = blk.row(blk.w(), -1);
       } else {
         const long size = (rows[l].ny + 2) * lv.s;
-        lv.own.reset(new T[3 * size]);
-        T* base = lv.own.get();
+        T* base = next;
+        next += 3 * size;
 #pragma omp parallel for schedule(static) if (lv.threaded())
         for (long jl = -1; jl <= rows[l].ny; ++jl)
           for (long k = 0; k < 3; ++k) std::fill_n(base + k * size + (jl + 1) * lv.s, lv.s, T(0));
@@ -167,7 +170,26 @@ class CpuMg final : public MgLevels {
     if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
   }
 
-  void prolong_add(int l) override {
+  void prolong_add(int l) override { prolong(l, true); }
+  void interpolate(int l) override { prolong(l, false); }
+
+  // b_{l+1} = Pᵀ b_l in one pass (read b, write a quarter), the coarse rows as restrict_residual makes them.
+  void restrict_rhs(int l) override {
+    CpuLevel<T>& f = lv_[l];
+    CpuLevel<T>& c = lv_[l + 1];
+    if (!f.rows.whole) comm_->halo(f, f.b);
+    const long j0 = f.rows.y0 / 2, j1 = (f.rows.y0 + f.rows.ny) / 2;
+#pragma omp parallel for schedule(static) if (f.threaded())
+    for (long J = j0; J < j1; ++J) {
+      const long jf = 2 * J + 1 - f.rows.y0;
+      restrict_row(f.row(f.b, jf - 1), f.row(f.b, jf), f.row(f.b, jf + 1), c.row(c.b, J - c.rows.y0), c.rows.n);
+    }
+    if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
+  }
+
+ private:
+  // x_l += P x_{l+1} (add) or x_l = P x_{l+1}.
+  void prolong(int l, bool add) {
     CpuLevel<T>& f = lv_[l];
     CpuLevel<T>& c = lv_[l + 1];
     if (!c.rows.whole) comm_->halo(c, c.x);
@@ -181,13 +203,19 @@ class CpuMg final : public MgLevels {
       const T* __restrict cb = c.row(c.x, J);
       T* __restrict x = f.row(f.x, jl);
       // Padded fine column k = 2C sits on padded coarse column C; k = 2C + 1 lies between C and C + 1.
-      for (long k = 1; k <= n; ++k) {
+      auto value = [&](long k) {
         const long C = k / 2;
         const T a = T(0.5) * (ca[C] + cb[C]);
-        x[k] += (k & 1) ? T(0.5) * (a + T(0.5) * (ca[C + 1] + cb[C + 1])) : a;
-      }
+        return (k & 1) ? T(0.5) * (a + T(0.5) * (ca[C + 1] + cb[C + 1])) : a;
+      };
+      if (add)
+        for (long k = 1; k <= n; ++k) x[k] += value(k);
+      else
+        for (long k = 1; k <= n; ++k) x[k] = value(k);
     }
   }
+
+ public:
 
   // The fused halves of a level's V-cycle (mg.hpp), one pass over the level's memory each, with the values of
   // zero, smooth_pair(l, 0), restrict_residual(l) and of prolong_add(l), smooth_pair(l, 1). Each thread walks down
@@ -397,6 +425,7 @@ class CpuMg final : public MgLevels {
 
   std::vector<CpuLevel<T>> lv_;
   MgComm<T>* comm_;
+  hpcgi::HugeArray<T> coarse_;
   std::vector<std::vector<T>> rings_;
   double dot0_ = 0;
 };
@@ -407,7 +436,7 @@ template <class T>
 class CpuPcg {
  public:
   CpuPcg(CpuBlock<T>& blk, const std::vector<LevelRows>& rows, MgComm<T>* comm)
-      : blk_(blk), size_(checked_size(blk, rows)), z_(new T[size_]) {
+      : blk_(blk), size_(checked_size(blk, rows)), z_(hpcgi::huge_array<T>(size_)) {
     const long s = blk.stride();
 #pragma omp parallel for schedule(static)
     for (long jl = -CpuBlock<T>::kGhost; jl < blk.rows() + CpuBlock<T>::kGhost; ++jl)
@@ -511,6 +540,35 @@ class CpuPcg {
     return rr;
   }
 
+  // --method fmg: z ≈ A⁻¹ r by the full-multigrid F-cycle (full; mg.hpp fmg, r = b after init) or by one
+  // vcycle_solve from z = 0.
+  void solve_cycle(bool full) { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
+
+  // x += z, r -= A z after the F-cycle or a V-cycle (halo() fills z's ghost rows on a distributed block); returns
+  // the local r·r. Reads x, z, r, writes x, r: 5 vectors of N².
+  template <class Halo>
+  double correct(Halo&& halo) {
+    halo(z_.get());
+    const long n = blk_.stride() - 2;
+    double rr = 0;
+#pragma omp parallel for schedule(static) reduction(+ : rr)
+    for (long jl = 0; jl < blk_.rows(); ++jl) {
+      T* __restrict x = blk_.row(blk_.x(), jl);
+      T* __restrict r = blk_.row(blk_.r(), jl);
+      const T *zc = blk_.row(z_.get(), jl), *zu = blk_.row(z_.get(), jl - 1), *zd = blk_.row(z_.get(), jl + 1);
+      double sum = 0;
+#pragma omp simd reduction(+ : sum)
+      for (long c = 1; c <= n; ++c) {
+        x[c] += zc[c];
+        const T rn = r[c] - (4 * zc[c] - zc[c - 1] - zc[c + 1] - zu[c] - zd[c]);
+        r[c] = rn;
+        sum += static_cast<double>(rn) * rn;
+      }
+      rr += sum;
+    }
+    return rr;
+  }
+
   void calc_p_z(double beta) {
     const T b = static_cast<T>(beta);
     const long n = blk_.stride() - 2;
@@ -533,7 +591,7 @@ class CpuPcg {
   }
   CpuBlock<T>& blk_;
   long size_;
-  std::unique_ptr<T[]> z_;
+  hpcgi::HugeArray<T> z_;
   std::unique_ptr<CpuMg<T>> mg_;
 };
 

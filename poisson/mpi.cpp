@@ -44,16 +44,19 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
  public:
   explicit Mpi(const Config& cfg)
       : rank_(world_rank()), size_(world_size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
-        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), blk_(cfg.n, part_.y0, part_.ny) {
+        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"),
+        blk_(cfg.n, part_.y0, part_.ny, !fmg_) {
     const int active = static_cast<int>(std::min<long>(size_, n_));  // ranks 0..active-1 hold rows
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
     down_ = (rank_ + 1 < active) ? rank_ + 1 : MPI_PROC_NULL;
     min_rows_ = n_ / active;
-    if (cfg.precond == "mg") make_mg(active);
+    if (cfg.multigrid()) make_mg(active);
   }
 
   // Preconditioned (the hierarchy of the comment at the top).
   double precondition() override { return sum(pcg_->precondition()); }
+  void solve_cycle(bool full) override { pcg_->solve_cycle(full); }
+  double correct() override { return sum(pcg_->correct([this](T* z) { exchange({z}, 1); })); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
   bool fused_updates() const override { return true; }
   double calc_p_pw(double beta) override {
@@ -115,7 +118,8 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   }
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
-    return pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+    return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(n_) + 0.5)
+                : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
   }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {
@@ -224,7 +228,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   int rank_, size_;
   Split part_;
   long n_;
-  bool blocking_, onesweep_;
+  bool blocking_, onesweep_, fmg_;
   CpuBlock<T> blk_;
   int up_ = MPI_PROC_NULL, down_ = MPI_PROC_NULL;
   long min_rows_ = 1;  // the fewest rows any rank holding rows has

@@ -14,13 +14,16 @@ namespace {
 template <class T>
 class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
  public:
-  explicit OpenMP(const Config& cfg) : onesweep_(cfg.variant == "onesweep"), blk_(cfg.n, 0, cfg.n) {
-    if (cfg.precond != "mg") return;
+  explicit OpenMP(const Config& cfg)
+      : onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), blk_(cfg.n, 0, cfg.n, !fmg_) {
+    if (!cfg.multigrid()) return;
     std::vector<LevelRows> rows;
     for (long m : mg_level_sizes(cfg.n)) rows.push_back({m, 0, m, true});
     pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, nullptr);
   }
   double precondition() override { return pcg_->precondition(); }
+  void solve_cycle(bool full) override { pcg_->solve_cycle(full); }
+  double correct() override { return pcg_->correct([](T*) {}); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
   bool fused_updates() const override { return true; }
   double calc_p_pw(double beta) override { return pcg_->calc_p_pw(beta, [] {}); }
@@ -41,16 +44,18 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
     return out;
   }
   // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them; multigrid:
-  // [p = z + βp, p·Ap] 3, [x, r, r·r] with Ap from p 5 and the fused V-cycle, r·z in its last pass (mg.hpp).
+  // [p = z + βp, p·Ap] 3, [x, r, r·r] with Ap from p 5 and the fused V-cycle, r·z in its last pass (mg.hpp);
+  // fmg after its F-cycle: the solver's V-cycle from zero (mg.hpp) and [x += z, r -= Az, r·r] 5.
   int vectors_per_iteration() const override {
-    return pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
+    return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(blk_.rows()) + 0.5)
+                : pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
   }
   std::map<std::string, std::string> info() const override {
     return {{"threads", std::to_string(omp_get_max_threads())}};
   }
 
  private:
-  bool onesweep_;
+  bool onesweep_, fmg_;
   CpuBlock<T> blk_;
   std::unique_ptr<CpuPcg<T>> pcg_;
 };

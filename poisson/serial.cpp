@@ -101,15 +101,15 @@ class Serial final : public Kernels<T>, public Preconditioned {
   explicit Serial(const Config& cfg)
       : g_{cfg.n},
         n_((hpcgi::require_host_memory("N = " + std::to_string(cfg.n) +
-                                           (cfg.precond == "mg" ? " with multigrid" : ""),
+                                           (cfg.multigrid() ? " with multigrid" : ""),
                                        sizeof(T) * (5.0 * cfg.n * cfg.n +
-                                                    (cfg.precond == "mg" ? cfg.n * cfg.n + mg_extra_values(cfg.n)
+                                                    (cfg.multigrid() ? cfg.n * cfg.n + mg_extra_values(cfg.n)
                                                                          : 0.0))),
             cfg.n)),
-        x_(n_ * n_), r_(n_ * n_), p_(n_ * n_), w_(n_ * n_), b_(n_ * n_) {
+        fmg_(cfg.method == "fmg"), x_(n_ * n_), r_(n_ * n_), p_(n_ * n_), w_(n_ * n_), b_(n_ * n_) {
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) b_[j * n_ + i] = static_cast<T>(g_.b(i, j));
-    if (cfg.precond == "mg") {
+    if (cfg.multigrid()) {
       z_.resize(n_ * n_);
       mg_ = std::make_unique<SerialMg<T>>(n_, z_, r_, w_);
     }
@@ -120,6 +120,17 @@ class Serial final : public Kernels<T>, public Preconditioned {
     double rz = 0;
     for (long k = 0; k < n_ * n_; ++k) rz += static_cast<double>(r_[k]) * z_[k];
     return rz;
+  }
+  void solve_cycle(bool full) override { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
+  double correct() override {
+    apply(z_, w_);
+    double rr = 0;
+    for (long k = 0; k < n_ * n_; ++k) {
+      x_[k] += z_[k];
+      r_[k] -= w_[k];
+      rr += static_cast<double>(r_[k]) * r_[k];
+    }
+    return rr;
   }
   void calc_p_z(double beta) override {
     const T b = static_cast<T>(beta);
@@ -190,8 +201,10 @@ class Serial final : public Kernels<T>, public Preconditioned {
 
   std::vector<double> solution() override { return std::vector<double>(x_.begin(), x_.end()); }
   // Unfused loops: [w = Ap] 2, [p·w] 2, [x, r, r·r] 6, [p] 3; with multigrid (mg_vectors, kernels.hpp) [r·z] 2
-  // and the V-cycle.
-  int vectors_per_iteration() const override { return mg_ ? 13 + 2 + mg_vectors_per_cycle(n_) : 13; }
+  // and the V-cycle; fmg after its F-cycle: the V-cycle, [w = Az] 2, [x, r, r·r] 5.
+  int vectors_per_iteration() const override {
+    return mg_ ? (fmg_ ? 7 : 13 + 2) + mg_vectors_per_cycle(n_) : 13;
+  }
   std::map<std::string, std::string> info() const override { return {{"threads", "1"}}; }
 
  private:
@@ -210,6 +223,7 @@ class Serial final : public Kernels<T>, public Preconditioned {
 
   Grid g_;
   long n_;
+  bool fmg_;
   std::vector<T> x_, r_, p_, w_, b_, z_;
   std::unique_ptr<SerialMg<T>> mg_;
 };

@@ -124,13 +124,20 @@ def bench(preset, p):
     # iteration counts must agree, and 200 capped iterations at 2048 for the time per iteration. N = 8192: ours.
     petsc = f"ranks={t} /usr/bin/python3 bench/petsc_poisson.py"
     mg = f"bin/poisson --backend openmp --threads {t} --precond mg"
-    e["bench-mg"] = ("Bench: MG-PCG to 1e-6 against PETSc CG, CG + hypre BoomerAMG and CG + GAMG; plain CG per "
-                     "iteration against PETSc's CG", None, [
+    fmg = f"bin/poisson --backend openmp --threads {t} --method fmg"
+    dst = f".venv/bin/python -m bench.dst_poisson --threads {t}"
+    e["bench-mg"] = ("Bench: MG-PCG and FMG to 1e-6 against PETSc CG, CG + hypre BoomerAMG and CG + GAMG and the "
+                     "DST direct solver; plain CG per iteration against PETSc's CG", None, [
         f"bin/poisson --backend openmp --threads {t} --n 512", f"{petsc} --n 512 --pc none",
         f"bin/poisson --backend openmp --threads {t} --n 2048 --steps 200", f"{petsc} --n 2048 --pc none --max-iter 200",
         *(line for n in (1024, 2048, 4096) for line in (
             f"{mg} --n {n}", f"{petsc} --n {n} --pc hypre", f"{petsc} --n {n} --pc gamg")),
-        f"{mg} --n 8192"])
+        f"{mg} --n 8192",
+        # Issue 37: full multigrid against the direct fast solver (DST-I by scipy.fft and by FFTW), the same threads,
+        # at our sizes and at the transforms' good ones (N + 1 a power of two), MG-PCG beside them.
+        *(line for n in (2048, 4096, 4095, 8192, 8191) for line in (
+            f"{fmg} --n {n}", *(f"{dst} --n {n} --fft {fft}" for fft in ("scipy", "fftw")))),
+        f"{mg} --n 8191"])
     e["bench-hemicube"] = ("Bench: form factors of room3.xml by the hemicube, R = 256, patches per second", None, [
         f"bin/radiosity formfactors {room3} -o {ff} --hemicube 256 --weights exact --threads {t}"])
     e["bench-jacobi"] = ("Bench: Jacobi steps on room3.xml, float32, ours (AOS, SOA; F in float32, float16, bfloat16) "

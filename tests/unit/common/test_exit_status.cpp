@@ -2,6 +2,7 @@
 // one line on stderr; the numerical guards of both programs rely on it for exit status 3.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -65,4 +66,16 @@ TEST(ExitStatus, FinishThrowsTheOutcomesStatus) {
       EXPECT_NE(err.find("why"), std::string::npos) << err;
     }
   EXPECT_THROW(hpcgi::finish({hpcgi::kExitUsage, "no"}), std::logic_error);
+}
+
+// common/memory's huge_array: 2 MiB-aligned, zero, writable to its last value, with or without huge pages asked for.
+TEST(HugeArray, AlignedZeroAndWritable) {
+  for (const size_t n : {size_t(1), size_t(1000), size_t(3) << 20}) {
+    hpcgi::HugeArray<double> a = hpcgi::huge_array<double>(n);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(a.get()) % (std::uintptr_t(2) << 20), 0u) << n;
+    EXPECT_EQ(a[0], 0.0);
+    EXPECT_EQ(a[n - 1], 0.0);
+    a[n - 1] = 1.5;
+    EXPECT_EQ(a[n - 1], 1.5);
+  }
 }

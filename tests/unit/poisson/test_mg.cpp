@@ -139,9 +139,23 @@ TEST(Mg, PreconditionerABackendLacksIsAUsageError) {
   cfg.variant = "onesweep";
   EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
   EXPECT_EQ(poisson::default_variant("openmp", "double", "mg"), "classic");
+  EXPECT_EQ(poisson::default_variant("openmp", "double", "none", "fmg"), "classic");
 #ifdef HAVE_CUDA
   EXPECT_THROW(poisson::make_kernels<double>(config("cublas1", 8)), hpcgi::UsageError);
 #endif
 }
 
 }  // namespace
+
+// --method fmg's data-movement model (mg.hpp): 15 vectors of N² on the finest level (restriction of b and
+// interpolation 2.5, the V-cycle from x 12.5), each level below its own share plus 7.5 for every cycle from zero
+// that passes through it, scaled by its size.
+TEST(Mg, FmgBytesModelByLevel) {
+  const std::vector<double> v = poisson::fmg_vectors_per_level(64);
+  ASSERT_EQ(v.size(), 7u);
+  EXPECT_DOUBLE_EQ(v[0], 15.0);
+  EXPECT_DOUBLE_EQ(v[1], (15.0 + 7.5) * (32.0 / 64) * (32.0 / 64));
+  double total = 0;
+  for (double x : v) total += x;
+  EXPECT_LT(total, 15.0 * 4 / 3 + 7.5);  // about 4/3 of a fine-grid cycle from x and one from zero
+}

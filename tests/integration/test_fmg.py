@@ -1,0 +1,132 @@
+"""bin/poisson --method fmg (issue 37): full multigrid, then V-cycles, to the same ||r||/||r0|| <= tol. Its
+iterations do not grow with N, its error is the exact discrete solution's (bench/dst_poisson.py's DST solve), and
+every backend agrees with serial."""
+import argparse
+
+import numpy as np
+import pytest
+
+from bench import dst_poisson
+from conftest import BIN, have_mpi, poisson, run
+from test_poisson import assert_matches, solve
+
+requires_mpi = pytest.mark.skipif(not have_mpi(), reason="bin/poisson built without MPI or no mpirun")
+
+
+def test_iterations_are_flat_in_n():
+    its = {}
+    for n in (63, 127, 255, 256, 511, 1000, 1023, 2047):
+        p, rec = poisson("--n", n, "--backend", "openmp", "--threads", 2, "--method", "fmg")
+        assert p.returncode == 0, p.stderr
+        assert rec["result"]["status"] == "converged" and rec["result"]["true_rel_residual"] <= 1e-6
+        its[n] = rec["result"]["iterations"]
+    # 5 on this problem for every N (N = 63 .. 2047, odd and even): the F-cycle, then four V-cycles of ~0.075 each
+    assert max(its.values()) - min(its.values()) <= 1 and max(its.values()) <= 6, its
+
+
+def dst(n, fft):
+    return dst_poisson.solve(argparse.Namespace(n=n, fft=fft, threads=1))
+
+
+@pytest.mark.parametrize("fft", ["scipy", "fftw"])
+def test_dst_is_the_exact_discrete_solution(fft):
+    u, _, _, true_rel, err = dst(63, fft)
+    assert true_rel <= 1e-12
+    h = 1 / 64
+    c = np.arange(1, 64) * h
+    assert abs(err - np.max(np.abs(u - np.multiply.outer(np.sin(np.pi * c) ** 2, np.sin(np.pi * c) ** 2)))) == 0
+
+
+# ||u - u_h||_inf of FMG to 1e-6 equals that of the exact discrete solution to 3 digits, and u_h is within 1% of
+# that error of it everywhere (the algebraic error is far below the discretisation error).
+@pytest.mark.parametrize("backend", ["serial", "openmp"])
+def test_error_equals_the_exact_discrete_solutions(tmp_path, backend):
+    rec, x = solve(tmp_path, "fmg", "--n", 255, "--backend", backend, "--method", "fmg")
+    u, _, _, _, err = dst(255, "scipy")
+    assert f"{rec['result']['error_inf']:.2e}" == f"{err:.2e}", (rec["result"]["error_inf"], err)
+    assert abs(rec["result"]["error_inf"] - err) <= 1e-3 * err
+    assert np.max(np.abs(x - u)) <= 1e-2 * err
+
+
+@pytest.fixture(scope="module")
+def serial_fmg(tmp_path_factory):
+    d = tmp_path_factory.mktemp("serial_fmg")
+    return {n: solve(d, f"ser{n}", "--n", n, "--backend", "serial", "--method", "fmg") for n in (5, 100, 257)}
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+def test_openmp_fmg_matches_serial(tmp_path, serial_fmg, threads):
+    for n in (5, 100, 257):
+        rec, x = solve(tmp_path, "omp", "--n", n, "--backend", "openmp", "--threads", threads, "--method", "fmg")
+        assert rec["result"]["iterations"] == serial_fmg[n][0]["result"]["iterations"]
+        assert_matches(rec, x, serial_fmg[n])
+
+
+# Levels split across ranks (N = 257 on 2 ranks) and gathered at once (N = 100 on 7), P > N (N = 5 on 7).
+@requires_mpi
+@pytest.mark.parametrize("n,ranks", [(5, 7), (100, 3), (100, 7), (257, 2), (257, 4)])
+def test_mpi_fmg_matches_serial(tmp_path, serial_fmg, n, ranks):
+    rec, x = solve(tmp_path, "mpi", "--n", n, "--backend", "mpi", "--method", "fmg", np_=ranks)
+    assert rec["params"]["method"] == "fmg" and rec["params"]["ranks"] == ranks
+    assert rec["result"]["iterations"] == serial_fmg[n][0]["result"]["iterations"]
+    assert_matches(rec, x, serial_fmg[n])
+
+
+def test_record_says_method_and_dof_per_s():
+    p, rec = poisson("--n", 64, "--backend", "openmp", "--method", "fmg")
+    assert p.returncode == 0, p.stderr
+    assert rec["params"]["method"] == "fmg" and rec["params"]["precond"] == "none"
+    assert rec["result"]["mg_levels"] == [64, 32, 16, 8, 4, 2, 1]
+    per_level = rec["perf"]["fmg_vectors_per_level"]
+    assert len(per_level) == 7 and per_level[0] == 15.0 and all(v > 0 for v in per_level[:-1])
+    assert rec["perf"]["dof_per_s"] == pytest.approx(64 * 64 / rec["times_s"]["solve"])
+    p, rec = poisson("--n", 64, "--backend", "openmp")
+    assert rec["params"]["method"] == "cg" and rec["perf"]["dof_per_s"] > 0
+
+
+BAD = [["--method", "multigrid"], ["--method", "fmg", "--precond", "mg"], ["--method", "fmg", "--variant", "onesweep"],
+       ["--method", "fmg", "--backend", "cublas1"]]
+
+
+@pytest.mark.parametrize("args", BAD, ids=[" ".join(a) for a in BAD])
+def test_bad_method_exits_2_with_one_line(args):
+    p = run([BIN / "poisson", *args], timeout=30)
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("poisson"), p.stderr
+
+
+def test_gpu_fmg_matches_serial(tmp_path, requires_gpu, serial_fmg):
+    for n in (5, 100, 257):
+        rec, x = solve(tmp_path, "cuda", "--n", n, "--backend", "cuda", "--method", "fmg")
+        assert rec["result"]["iterations"] == serial_fmg[n][0]["result"]["iterations"]
+        assert_matches(rec, x, serial_fmg[n])
+
+
+def test_bench_table_sets_fmg_beside_mg_pcg_and_the_dst_solver(tmp_path):
+    """analysis.bench on bench-mg records at N = 64: rows for MG-PCG, FMG and both DST solvers, DOF/s on each."""
+    import os
+    import subprocess
+    import sys
+    from conftest import ROOT
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    res = tmp_path / "results" / "bench-test"
+    p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
+    assert p.returncode == 0, p.stderr
+    for args in (["--precond", "mg"], ["--method", "fmg"]):
+        p = run([BIN / "poisson", "--backend", "openmp", "--n", "64", "--quiet", "--record",
+                 res / "bench-mg/quick.jsonl", *args])
+        assert p.returncode == 0, p.stderr
+    for fft in ("scipy", "fftw"):
+        p = run([sys.executable, "-m", "bench.dst_poisson", "--n", "64", "--fft", fft, "--threads", "1", "--quiet",
+                 "--record", res / "bench-mg/quick.jsonl"], cwd=ROOT)
+        assert p.returncode == 0, p.stderr
+    p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    table = (res / "tables" / "bench_quick.md").read_text()
+    rows = [l for l in table.splitlines() if l.startswith("|") and ("MG-PCG" in l or "FMG" in l or "DST-I" in l)]
+    assert len(rows) == 4, table
+    header = next(l for l in table.splitlines() if l.startswith("|") and "DOF/s" in l)
+    col = [c.strip() for c in header.split("|")].index("DOF/s")
+    assert all(float([c.strip() for c in r.split("|")][col]) > 0 for r in rows), rows
