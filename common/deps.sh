@@ -13,6 +13,7 @@ DEBIAN_PACKAGES=(
   slurmctld slurmd slurm-client munge
   clang libclang-rt-dev  # make fuzz: libFuzzer and clang's sanitizers
   python3-petsc4py       # make bench: PETSc (with hypre) as the peer of bin/poisson --precond mg
+  libfftw3-double3       # make bench: FFTW's RODFT00, the direct solver (bench/dst_poisson.py) beside --method fmg
   chromium  # tests/integration/test_relight.py: bin/radiosity web's page in headless Chromium
 )
 VENV=${VENV:-.venv}
