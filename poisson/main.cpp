@@ -1,9 +1,6 @@
 // bin/poisson: one CG solve of the 2-D Poisson test problem on one backend; prints a summary, optionally appends
 // a run record (--record) and writes the solution (--solution).
 #include <omp.h>
-#ifdef HAVE_MPI
-#include <mpi.h>
-#endif
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +11,7 @@
 #include <string>
 
 #include "common/cli.hpp"
+#include "common/comm.hpp"
 #include "common/files.hpp"
 #include "common/errors.hpp"
 #include "common/launcher.hpp"
@@ -217,20 +215,7 @@ int main(int argc, char** argv) {
       throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
     if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);
     else if (mpi && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
-#ifdef HAVE_MPI
-    struct MpiSession {
-      bool on = false;
-      explicit MpiSession(bool want) {
-        if (!want) return;
-        int provided = 0;
-        MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-        on = true;
-      }
-      ~MpiSession() {
-        if (on) MPI_Finalize();
-      }
-    } session(mpi);
-#endif
+    hpcgi::comm::Session session(mpi);  // rank, size and hosts for the record; MPI_Finalize at the end
     return a.precision == "float" ? solve<float>(a) : solve<double>(a);
   });
 }
