@@ -21,9 +21,12 @@ ns_check() {  # ns_check K: refuses in one line where the cluster cannot work
   [ "$(id -u)" -eq 0 ] || ns_refuse "a $k-node cluster needs root (network namespaces)"
   command -v ip >/dev/null || ns_refuse "a $k-node cluster needs 'ip' (iproute2)"
   command -v unshare >/dev/null || ns_refuse "a $k-node cluster needs 'unshare' (util-linux)"
-  command -v slurmd >/dev/null && command -v slurmctld >/dev/null || ns_refuse "slurmctld/slurmd are not installed (make deps)"
-  unshare --net --uts true 2>/dev/null || ns_refuse "network and UTS namespaces are not allowed here (unshare --net --uts fails)"
-  [ ! -e "$NS_DIR" ] || ns_refuse "a cluster is already up ($NS_DIR exists): slurm/local-cluster --nodes $(ns_nodes | wc -l) stop"
+  command -v slurmd >/dev/null && command -v slurmctld >/dev/null ||
+    ns_refuse "slurmctld/slurmd are not installed (make deps)"
+  unshare --net --uts true 2>/dev/null ||
+    ns_refuse "network and UTS namespaces are not allowed here (unshare --net --uts fails)"
+  [ ! -e "$NS_DIR" ] ||
+    ns_refuse "a cluster is already up ($NS_DIR exists): slurm/local-cluster --nodes $(ns_nodes | wc -l) stop"
 }
 
 ns_write_conf() {  # ns_write_conf K
@@ -46,7 +49,7 @@ SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 MpiDefault=none
 ReturnToService=2
-SlurmdTimeout=10
+SlurmdTimeout=5
 MessageTimeout=5
 StateSaveLocation=$NS_DIR/state
 SlurmdSpoolDir=$NS_DIR/%n/spool
@@ -61,6 +64,10 @@ CONF
     echo "NodeName=node$i NodeAddr=$NS_NET.$i NodeHostname=node$i" >> "$NS_CONF"
   done
   echo "PartitionName=local Nodes=$nodes Default=YES MaxTime=INFINITE State=UP" >> "$NS_CONF"
+  # srun --mpi=pmix: Slurm's PMIx server makes its clients' folder under this base, named by job and step only, so
+  # the nodes (which share /tmp) must not share it: each node mounts its own nodeI/tmp here (ns_start).
+  mkdir -p "$NS_DIR/tmp"
+  echo "PMIxCliTmpDirBase=$NS_DIR/tmp" > "$NS_DIR/mpi.conf"
 }
 
 ns_net() {  # ns_net K: the bridge, one namespace and veth pair per node, /etc/netns/hpcgi-nodeI/hosts
@@ -94,11 +101,13 @@ ns_start() {  # ns_start K
   # The controller: this machine's network, its own hostname (Slurm starts only on the host SlurmctldHost names).
   unshare --uts sh -c "hostname hpcgi-head && exec /usr/sbin/slurmctld -f '$NS_CONF'"
   # A node: its network namespace, its own hostname and a private mount namespace in which its /etc/hosts is
-  # /etc/netns/hpcgi-nodeI/hosts (nsenter, not ip netns exec, which would mount a /sys without the cgroups slurmd
-  # reads). The mount goes when the node's last process does.
+  # /etc/netns/hpcgi-nodeI/hosts and $NS_DIR/tmp is its own nodeI/tmp (nsenter, not ip netns exec, which would
+  # mount a /sys without the cgroups slurmd reads). The mounts go when the node's last process does.
   for ((i = 1; i <= k; i++)); do
+    mkdir -p "$NS_DIR/node$i/tmp"
     nsenter --net="/run/netns/hpcgi-node$i" unshare --uts --mount --propagation private sh -c \
-      "mount --bind /etc/netns/hpcgi-node$i/hosts /etc/hosts && hostname node$i && exec /usr/sbin/slurmd -f '$NS_CONF' -N node$i"
+      "mount --bind /etc/netns/hpcgi-node$i/hosts /etc/hosts && mount --bind '$NS_DIR/node$i/tmp' '$NS_DIR/tmp' &&
+       hostname node$i && exec /usr/sbin/slurmd -f '$NS_CONF' -N node$i"
   done
   for _ in $(seq 150); do
     idle=$(SLURM_CONF=$NS_CONF sinfo -h -N -o '%N %t' 2>/dev/null | awk '$2 == "idle"' | wc -l)
