@@ -111,7 +111,7 @@ def test_a_node_killed_mid_array_then_resume_records_every_case_once(tmp_path):
     gen = cluster(3)
     next(gen)
     try:
-        p = run(["sbatch", "--parsable", "--no-requeue", f"--array=0-{n - 1}", "--ntasks=1",
+        p = run(["sbatch", "--parsable", "--no-requeue", f"--array=0-{n - 1}", "--ntasks=1", "--cpus-per-task=1",
                  f"--output={tmp_path}/%A_%a.out", "slurm/experiment.sbatch", exp], env=env, cwd=ROOT)
         assert p.returncode == 0, p.stderr
         deadline = time.time() + 60
@@ -126,7 +126,7 @@ def test_a_node_killed_mid_array_then_resume_records_every_case_once(tmp_path):
             time.sleep(0.5)
         missing = run([ROOT / "slurm" / "missing", exp], env=env, cwd=ROOT).stdout.strip()
         assert missing, "the killed node's task should be missing"
-        sbatch_wait(f"--array={missing}", "--ntasks=1", f"--output={tmp_path}/%A_%a.out", "slurm/experiment.sbatch",
+        sbatch_wait(f"--array={missing}", "--ntasks=1", "--cpus-per-task=1", f"--output={tmp_path}/%A_%a.out", "slurm/experiment.sbatch",
                     exp, env=env)
         assert run([ROOT / "slurm" / "missing", exp], env=env, cwd=ROOT).stdout.strip() == ""
     finally:
