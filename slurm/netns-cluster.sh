@@ -128,11 +128,17 @@ ns_fail() {  # the EXIT trap of start: on failure, the logs' last lines, then ev
   exit $s
 }
 
-ns_kill() {  # ns_kill PID...: TERM, then KILL what is left after 2 s
+ns_kill() {  # ns_kill PID...: TERM, then KILL what is left after 3 s
   [ $# -gt 0 ] || return 0
+  local p alive
   kill "$@" 2>/dev/null || true
-  for _ in $(seq 20); do kill -0 "$@" 2>/dev/null || return 0; sleep 0.1; done
-  kill -9 "$@" 2>/dev/null || true
+  for _ in $(seq 30); do
+    alive=()
+    for p in "$@"; do kill -0 "$p" 2>/dev/null && alive+=("$p"); done
+    [ ${#alive[@]} -eq 0 ] && return 0
+    sleep 0.1
+  done
+  kill -9 "${alive[@]}" 2>/dev/null || true
 }
 
 ns_stop() {
@@ -141,9 +147,9 @@ ns_stop() {
     # shellcheck disable=SC2207
     pids+=($(ip netns pids "hpcgi-node$i" 2>/dev/null || true))
   done
-  ns_kill ${pids[@]+"${pids[@]}"}
-  [ -f "$NS_DIR/slurmctld.pid" ] && ns_kill "$(cat "$NS_DIR/slurmctld.pid")"
-  if [ -f "$NS_DIR/munged.ours" ] && [ -f /run/munge/munged.pid ]; then ns_kill "$(cat /run/munge/munged.pid)"; fi
+  [ -f "$NS_DIR/slurmctld.pid" ] && pids+=("$(cat "$NS_DIR/slurmctld.pid")")
+  if [ -f "$NS_DIR/munged.ours" ] && [ -f /run/munge/munged.pid ]; then pids+=("$(cat /run/munge/munged.pid)"); fi
+  ns_kill ${pids[@]+"${pids[@]}"}  # all at once: each daemon takes its time to shut down
   for i in $(ns_nodes); do
     ip netns del "hpcgi-node$i" 2>/dev/null || true  # its end of the veth pair goes with it, and so the pair
     ip link del "hpcgi-v$i" 2>/dev/null || true
