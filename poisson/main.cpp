@@ -142,7 +142,9 @@ int solve(const Args& a) {
   // A run that is no answer (broken down, or stopped at --max-iter) writes no solution: only its record (as
   // bin/radiosity does).
   if (!a.solution_path.empty() && outcome.status == hpcgi::kExitOk) write_solution(a.solution_path, x);
-  hpcgi::finish(outcome);
+  // Every rank has this outcome (the residuals are allreduced; the others returned its status above): agreed, so
+  // rank 0 says it once rather than as "rank 0 of P" ending the others.
+  hpcgi::finish(outcome, /*agreed=*/true);
   return hpcgi::kExitOk;
 }
 
