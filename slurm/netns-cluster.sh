@@ -94,6 +94,7 @@ ns_start() {  # ns_start K
   ns_check "$k"
   mkdir -p "$NS_DIR"
   trap 'ns_fail' EXIT
+  trap 'exit 130' INT TERM HUP  # interrupted: the EXIT trap takes it all down
   seq "$k" > "$NS_DIR/nodes"
   ns_write_conf "$k"
   ns_net "$k"
@@ -115,7 +116,7 @@ ns_start() {  # ns_start K
     sleep 0.2
   done
   [ "${idle:-0}" -eq "$k" ] || { echo "local-cluster: only ${idle:-0} of $k nodes became idle" >&2; exit 1; }
-  trap - EXIT
+  trap - EXIT INT TERM HUP
   echo "local-cluster: $k nodes idle (node1..node$k at $NS_NET.1-$k, controller hpcgi-head at $NS_NET.254:6917)"
   echo "local-cluster: use it with: export SLURM_CONF=$NS_CONF"
 }
