@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # A K-node Slurm cluster on this one machine, sourced by slurm/local-cluster for --nodes K (K >= 2).
 # Each node nodeK is a network namespace hpcgi-nodeK with its own hostname (a UTS namespace), joined by a veth pair
 # to the bridge hpcgi-br0 in this machine's namespace, address 10.250.77.K; it runs its own `slurmd -N nodeK`.
