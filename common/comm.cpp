@@ -38,6 +38,18 @@ namespace {
 
 namespace {
 int g_rank = 0, g_size = 1;  // set by Session, kept after MPI_Finalize
+std::vector<std::string> g_hosts;  // every rank's host, gathered by Session
+
+std::vector<std::string> gather_hosts() {
+  char name[MPI_MAX_PROCESSOR_NAME] = {};
+  int len = 0;
+  MPI_Get_processor_name(name, &len);
+  std::vector<char> all(size_t(g_size) * MPI_MAX_PROCESSOR_NAME);
+  MPI_Allgather(name, MPI_MAX_PROCESSOR_NAME, MPI_CHAR, all.data(), MPI_MAX_PROCESSOR_NAME, MPI_CHAR, MPI_COMM_WORLD);
+  std::vector<std::string> hosts;
+  for (int r = 0; r < g_size; ++r) hosts.emplace_back(&all[size_t(r) * MPI_MAX_PROCESSOR_NAME]);
+  return hosts;
+}
 }  // namespace
 
 bool built() { return true; }
@@ -48,6 +60,7 @@ Session::Session(bool want) {
   MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
   MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
   MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+  g_hosts = gather_hosts();
   on_ = true;
 }
 
@@ -64,6 +77,7 @@ bool active() {
 
 int rank() { return g_rank; }
 int size() { return g_size; }
+const std::vector<std::string>& hosts() { return g_hosts; }
 
 void barrier() {
   if (active()) MPI_Barrier(MPI_COMM_WORLD);
@@ -138,6 +152,10 @@ double max(double v) { return v; }
 double min(double v) { return v; }
 std::vector<double> gather(double v) { return {v}; }
 std::string library() { return "none"; }
+const std::vector<std::string>& hosts() {
+  static const std::vector<std::string> none;
+  return none;
+}
 void abort(int status) { std::exit(status); }
 void agree(int status, const std::string& message) {
   if (status != 0) throw_agreed(status, message);

@@ -47,6 +47,9 @@ double max(double v);
 double min(double v);
 std::vector<double> gather(double v);  // every rank's v, in rank order, on every rank
 std::string library();                 // "Open MPI v4.1.4", or "none"
+// The host of each rank (MPI_Get_processor_name), in rank order; gathered once when the Session starts, so that
+// asking is not collective. Empty without MPI.
+const std::vector<std::string>& hosts();
 [[noreturn]] void abort(int status);   // MPI_Abort: ends every rank
 
 // Collective: every rank says how its part went (status 0, or an exit status of errors.hpp with its message). If

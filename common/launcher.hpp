@@ -5,13 +5,16 @@
 
 namespace hpcgi {
 
-// The world size an MPI launcher announced in the environment (OpenMPI's mpirun, PMI-1 and PMIx, as Slurm's srun
-// sets them), or 0 when the program was not started by one.
+// The world size an MPI launcher announced in the environment (OpenMPI's mpirun, PMI-1 and PMIx), or 0 when the
+// program was not started by one. Slurm's srun --mpi=pmix (22.05) sets PMIX_RANK but no PMIX_SIZE: there the size
+// is the step's task count.
 inline int launcher_world_size() {
   for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"}) {
     const char* s = std::getenv(v);
     if (s && std::atoi(s) > 0) return std::atoi(s);
   }
+  const char* step_tasks = std::getenv("SLURM_STEP_NUM_TASKS");
+  if (std::getenv("PMIX_RANK") && step_tasks && std::atoi(step_tasks) > 0) return std::atoi(step_tasks);
   return 0;
 }
 

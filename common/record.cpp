@@ -116,6 +116,8 @@ nlohmann::json make(const std::string& app) {
   r["app"] = app;
   r["argv"] = command_line();
   r["provenance"] = provenance();
+  // An MPI run: the host of each rank, in rank order (ranks on other nodes of a cluster show here).
+  if (comm::active() && !comm::hosts().empty()) r["mpi"]["hosts"] = comm::hosts();
   return r;
 }
 

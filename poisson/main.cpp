@@ -1,9 +1,6 @@
 // bin/poisson: one CG solve of the 2-D Poisson test problem on one backend; prints a summary, optionally appends
 // a run record (--record) and writes the solution (--solution).
 #include <omp.h>
-#ifdef HAVE_MPI
-#include <mpi.h>
-#endif
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +11,7 @@
 #include <string>
 
 #include "common/cli.hpp"
+#include "common/comm.hpp"
 #include "common/files.hpp"
 #include "common/errors.hpp"
 #include "common/launcher.hpp"
@@ -164,7 +162,9 @@ int solve(const Args& a) {
   // A run that is no answer (broken down, or stopped at --max-iter) writes no solution: only its record (as
   // bin/radiosity does).
   if (!a.solution_path.empty() && outcome.status == hpcgi::kExitOk) write_solution(a.solution_path, x);
-  hpcgi::finish(outcome);
+  // Every rank has this outcome (the residuals are allreduced; the others returned its status above): agreed, so
+  // rank 0 says it once rather than as "rank 0 of P" ending the others.
+  hpcgi::finish(outcome, /*agreed=*/true);
   return hpcgi::kExitOk;
 }
 
@@ -245,20 +245,7 @@ int main(int argc, char** argv) {
       throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
     if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);
     else if (mpi && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
-#ifdef HAVE_MPI
-    struct MpiSession {
-      bool on = false;
-      explicit MpiSession(bool want) {
-        if (!want) return;
-        int provided = 0;
-        MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
-        on = true;
-      }
-      ~MpiSession() {
-        if (on) MPI_Finalize();
-      }
-    } session(mpi);
-#endif
+    hpcgi::comm::Session session(mpi);  // rank, size and hosts for the record; MPI_Finalize at the end
     return a.precision == "float" ? solve<float>(a) : solve<double>(a);
   });
 }

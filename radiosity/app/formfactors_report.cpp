@@ -74,7 +74,7 @@ nlohmann::json formfactors_record(const FormFactorArgs& a, const Mesh& m, const 
                     {"save", w.save_s},
                     {"total", times.total_s}};
   rec["perf"] = {{"patches_per_s", n / c.slowest_s}, {"peak_rss_bytes", peak_rss_bytes()}};
-  if (dist) rec["mpi"] = mpi_of(m, plan, split, c, w);
+  if (dist) rec["mpi"].update(mpi_of(m, plan, split, c, w));  // beside the hosts record::make put there
   return rec;
 }
 

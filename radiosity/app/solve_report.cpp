@@ -152,7 +152,7 @@ void add_mpi(json& rec, const SolveReport& r) {
   mpi["rank_chain_wait_s"] = hpcgi::comm::gather(r.L.rank_chain_s);
   for (const auto& [key, v] : res.per_rank) mpi["rank_" + key] = v;
   for (const auto& [key, v] : res.comm) mpi[key] = v;
-  rec["mpi"] = mpi;
+  rec["mpi"].update(mpi);  // beside the hosts record::make put there
 }
 
 void print_per_rank(const SolveResult& res, int ranks) {
