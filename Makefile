@@ -84,7 +84,14 @@ LONG ?= $(if $(filter quick ci,$(PRESET)),0,1)
 EXPERIMENTS ?= $(REPORT_EXPERIMENTS) $(if $(filter 1,$(LONG)),$(LONG_EXPERIMENTS))
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
-MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
+MACHINE_ARG = $(if $(MACHINE),--machine "$$MACHINE")
+# What a user names on the command line (a file, a machine, a preset, experiments) reaches the recipes through the
+# environment, as "$$NAME" in the shell: never as $(NAME) inside a shell string, where a quote or a backtick in it
+# would be run. make puts what is given on its command line in the recipes' environment (ARCHIVE, RESULTS, MACHINE,
+# BENCH...); the names with a default here are exported below, after their definitions (an `export NAME` before
+# `NAME ?= value` would define it empty). Compilers and their flags (CXX OPT NVCC...) are commands by nature.
+# The targets that run Python from the project's venv install it first when it is missing or stale, as make test does.
+NEEDS_DEPS = @common/deps.sh --check || common/deps.sh
 .PHONY: all test unit fuzz deps clean help reproduce resume plots report audit bench scenes gpu-kit gpu-import FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
@@ -95,7 +102,7 @@ help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
-	@echo "make reproduce  run the study at PRESET=$(PRESET) on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
+	@echo "make reproduce  run the study at PRESET=$$PRESET on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
 	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
@@ -175,7 +182,7 @@ $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
 	$(FUZZ_CXX) -std=c++17 -g -O1 -I. -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
 	  $(FUZZ_SRC_$*) -o $@ -lpugixml
 fuzz: $(patsubst %,$(FUZZ_BUILD)/fuzz_%,$(FUZZ_TARGETS))
-	tests/fuzz/run $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+	tests/fuzz/run "$$FUZZ_BUILD" "$$FUZZ_SECONDS" $(FUZZ_TARGETS)
 
 deps:
 	@common/deps.sh
@@ -192,39 +199,41 @@ test:
 # Locally it ends with the runner's summary (cases run, skipped and why, failed) and exits non-zero only if a case
 # failed; a case skipped for want of a GPU or of RRV's scenes is no failure.
 reproduce:
-	@echo "reproduce: machine $$(python3 common/machine_label.py) (records in results/<machine>/), preset $(PRESET), runner $(RUNNER)"
-	@common/deps.sh --check || common/deps.sh
+	@echo "reproduce: machine $$(python3 common/machine_label.py) (records in results/<machine>/), preset $$PRESET, runner $$RUNNER"
+	$(NEEDS_DEPS)
 	@$(MAKE) --no-print-directory -j$$(nproc) all
 ifeq ($(RUNNER),slurm)
-	PRESET=$(PRESET) slurm/submit $(EXPERIMENTS)
+	set -f; slurm/submit $$EXPERIMENTS
 else
-	@mkdir -p $(BUILD); rm -f $(BUILD)/reproduce-summary.txt
-	PRESET=$(PRESET) HPCGI_SUMMARY_OUT=$(BUILD)/reproduce-summary.txt slurm/run-local $(EXPERIMENTS); status=$$?; \
-	$(MAKE) --no-print-directory report PRESET=$(PRESET) || status=1; \
-	echo; cat $(BUILD)/reproduce-summary.txt 2>/dev/null; exit $$status
+	@# Each make reproduce has a summary file of its own, so two at once each print their own summary.
+	@set -f; summary=$$(mktemp); trap 'rm -f "$$summary"' EXIT; \
+	HPCGI_SUMMARY_OUT=$$summary slurm/run-local $$EXPERIMENTS; status=$$?; \
+	$(MAKE) --no-print-directory report || status=1; \
+	echo; cat "$$summary"; exit $$status
 endif
 
 # Only what is missing or failed: locally the runner skips recorded cases anyway; on Slurm the missing indices.
 resume:
 	@$(MAKE) --no-print-directory all
 ifeq ($(RUNNER),slurm)
-	PRESET=$(PRESET) RESUME=1 slurm/submit $(EXPERIMENTS)
+	set -f; RESUME=1 slurm/submit $$EXPERIMENTS
 else
-	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS)
+	set -f; slurm/run-local $$EXPERIMENTS
 endif
 
 # The bandwidth limit, our solvers per iteration and their peers on this machine, one table of ratios
 # (slurm/bench: the bench-* case lists of PRESET through the local runner; README, section Performance).
 bench:
-	@common/deps.sh --check || common/deps.sh
+	$(NEEDS_DEPS)
 	@$(MAKE) --no-print-directory all
-	PRESET=$(PRESET) BENCH="$(BENCH)" slurm/bench
+	slurm/bench
 
 plots:
-	$(VENV)/bin/python -m analysis tables $(PRESET) $(MACHINE_ARG)
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python -m analysis tables "$$PRESET" $(MACHINE_ARG)
 
 report: plots
-	$(VENV)/bin/python -m analysis report $(PRESET) $(MACHINE_ARG)
+	$(VENV)/bin/python -m analysis report "$$PRESET" $(MACHINE_ARG)
 
 # RRV's scenes 3 and 4 from its public repository at one commit, checked by SHA-256 (RRV_URL=, SCENES_CACHE=).
 scenes:
@@ -233,7 +242,8 @@ scenes:
 # Re-runs a sample of recorded cases here and compares outcome and time with the records (slurm/audit).
 AUDIT_SAMPLE ?= 5
 audit:
-	$(VENV)/bin/python slurm/audit $(PRESET) --sample $(AUDIT_SAMPLE) $(MACHINE_ARG)
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python slurm/audit "$$PRESET" --sample "$$AUDIT_SAMPLE" $(MACHINE_ARG)
 
 clean:
 	rm -rf $(BUILD) $(BIN)
@@ -247,23 +257,24 @@ KIT_OPT    ?= -O3 -march=x86-64-v3
 # make does not rebuild objects when flags change: each configuration (archs, flags, compilers) builds into a folder
 # of its own, so CUDA_ARCHS="80 90" never packs objects compiled for 90 alone.
 KIT_BUILD  ?= build/gpu-kit-obj/$(shell echo '$(CUDA_ARCHS) | $(KIT_OPT) | $(CXX) | $(NVCC)' | md5sum | cut -c1-8)
-RRV_SCENES ?= $(shell radiosity/scenes/rrv/dir)
 KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)) \
                -gencode arch=compute_$(lastword $(CUDA_ARCHS)),code=compute_$(lastword $(CUDA_ARCHS))
+export PRESET RUNNER EXPERIMENTS AUDIT_SAMPLE KIT CUDA_ARCHS FUZZ_SECONDS FUZZ_BUILD
 gpu-kit:
 	@$(if $(HAVE_CUDA),,echo "make gpu-kit: needs nvcc (CUDA 13) on PATH or NVCC=...; none found" >&2; exit 2)
-	@RRV_SCENES="$(RRV_SCENES)" radiosity/scenes/rrv/dir >/dev/null || { echo "make gpu-kit: the kit carries RRV's \
-	scenes, and $(RRV_SCENES) lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
+	@scenes=$$(radiosity/scenes/rrv/dir) || { echo "make gpu-kit: the kit carries RRV's scenes, and $$scenes \
+	lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
 	@$(MAKE) --no-print-directory -f Makefile -f gpukit/link.mk BUILD=$(KIT_BUILD) BIN=$(KIT_BUILD)/bin \
 	  MPICXX=no-mpi-in-the-kit OPT="$(KIT_OPT)" NVCCFLAGS="-O3 -std=c++17 $(KIT_GENCODE) -Xcompiler -fopenmp" \
 	  $(KIT_BUILD)/bin/poisson $(KIT_BUILD)/bin/radiosity $(KIT_BUILD)/bin/stream $(KIT_BUILD)/tests/solve_tests
-	$(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit $(KIT) --cuda-home "$(CUDA_HOME)" --archs "$(CUDA_ARCHS)" \
-	  --rrv-scenes "$(RRV_SCENES)"
+	scenes=$$(radiosity/scenes/rrv/dir) && $(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit "$$KIT" \
+	  --cuda-home "$(CUDA_HOME)" --archs "$$CUDA_ARCHS" --rrv-scenes "$$scenes"
 
 # Brings a kit's archive home: its records into results/<the GPU node's label>/ (append-only; refuses a truncated
 # archive or a record without a GPU with one line).
 gpu-import:
-	@test -n "$(ARCHIVE)" || { echo "make gpu-import: say which archive: make gpu-import ARCHIVE=FILE" >&2; exit 2; }
-	$(PYTHON) gpukit/import_archive.py "$(ARCHIVE)" --results $(or $(RESULTS),results)
+	@test -n "$$ARCHIVE" || { echo "make gpu-import: say which archive: make gpu-import ARCHIVE=FILE" >&2; exit 2; }
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python gpukit/import_archive.py "$$ARCHIVE" --results "$${RESULTS:-results}"
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
