@@ -113,7 +113,7 @@ help:
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
 	@echo "make gpu-import ARCHIVE=FILE   the records of a kit's archive into results/<its machine>/"
-	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"
+	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $$FUZZ_SECONDS) with clang's libFuzzer"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
 

@@ -24,7 +24,7 @@ from common import machine_label
 MAX_ARCHIVE = 64 << 20
 MAX_UNPACKED = 512 << 20
 MAX_MEMBERS = 20000
-MAX_KEPT = 128 << 20      # machine.json and the records files together
+MAX_KEPT = 64 << 20       # machine.json and the records files together
 MAX_LINE = 1 << 20        # one record
 MAX_READ = 1 << 20        # one read of the tar reader (a header's long name or pax data included)
 # An experiment or preset is a name, never a path (slurm/names.sh holds the same rule for the runner).
