@@ -113,7 +113,7 @@ help:
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
 	@echo "make gpu-import ARCHIVE=FILE   the records of a kit's archive into results/<its machine>/"
-	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $$FUZZ_SECONDS) with clang's libFuzzer"
+	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $$FUZZ_SECONDS): clang's libFuzzer, the importer's Hypothesis"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
 
@@ -181,8 +181,11 @@ $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
 	@mkdir -p $(@D)
 	$(FUZZ_CXX) -std=c++17 -g -O1 -I. -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
 	  $(FUZZ_SRC_$*) -o $@ -lpugixml
+# Python targets (Hypothesis, from the venv): tests/fuzz/fuzz_<target>.py; import is make gpu-import's reader.
+FUZZ_PY_TARGETS := import
 fuzz: $(patsubst %,$(FUZZ_BUILD)/fuzz_%,$(FUZZ_TARGETS))
-	tests/fuzz/run "$$FUZZ_BUILD" "$$FUZZ_SECONDS" $(FUZZ_TARGETS)
+	$(NEEDS_DEPS)
+	tests/fuzz/run "$$FUZZ_BUILD" "$$FUZZ_SECONDS" $(FUZZ_TARGETS) $(FUZZ_PY_TARGETS)
 
 deps:
 	@common/deps.sh
