@@ -5,7 +5,7 @@ import pytest
 from conftest import ROOT, run
 
 # Each a path or a pattern, none of them spelled as the issue's ../quick/formfactors.
-BAD_EXPERIMENTS = ["table41/../table41", "table4*", "table41\nformfactors", ""]
+BAD_EXPERIMENTS = ["./table41", "../ci/table41", "table41\nformfactors", ""]
 BAD_PRESETS = ["../cases/ci", "c?"]
 
 
