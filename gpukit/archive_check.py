@@ -56,8 +56,9 @@ class Counted:
     def read(self, n=-1):
         if n is None or n < 0 or n > MAX_READ:
             raise Refused(f"a header or read of {n} bytes (more than {MAX_READ >> 20} MiB at once)")
-        self._room(self.gz.tell() + n)
-        return self.gz.read(n)
+        data = self.gz.read(min(n, MAX_UNPACKED + 1 - self.gz.tell()))
+        self._room(self.gz.tell())
+        return data
 
     def seek(self, pos, whence=0):
         if whence != 0:
