@@ -84,7 +84,14 @@ LONG ?= $(if $(filter quick ci,$(PRESET)),0,1)
 EXPERIMENTS ?= $(REPORT_EXPERIMENTS) $(if $(filter 1,$(LONG)),$(LONG_EXPERIMENTS))
 # Records go under results/$(MACHINE)/: this machine's label (common/machine_label.py: host, CPU, cores, GPU) unless
 # MACHINE=name is given; make plots/report MACHINE=<label> show another machine's records (e.g. the reference's).
-MACHINE_ARG = $(if $(MACHINE),--machine $(MACHINE))
+MACHINE_ARG = $(if $(MACHINE),--machine "$$MACHINE")
+# What a user names on the command line (a file, a machine, a preset, experiments) reaches the recipes through the
+# environment, as "$$NAME" in the shell: never as $(NAME) inside a shell string, where a quote or a backtick in it
+# would be run. make puts what is given on its command line in the recipes' environment (ARCHIVE, RESULTS, MACHINE,
+# BENCH...); the names with a default here are exported below, after their definitions (an `export NAME` before
+# `NAME ?= value` would define it empty). Compilers and their flags (CXX OPT NVCC...) are commands by nature.
+# The targets that run Python from the project's venv install it first when it is missing or stale, as make test does.
+NEEDS_DEPS = @common/deps.sh --check || common/deps.sh
 .PHONY: all test unit fuzz deps clean help reproduce regenerate-reference resume plots report audit bench scenes gpu-kit gpu-import FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
@@ -95,7 +102,7 @@ help:
 	@echo "make            build bin/ (what this machine can build)"
 	@echo "make test       C++ unit tests (GoogleTest) and integration tests (pytest); installs deps if missing"
 	@echo "make deps       install Debian packages and the Python venv ($(VENV)) the project needs"
-	@echo "make reproduce  run the study at PRESET=$(PRESET) on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
+	@echo "make reproduce  run the study at PRESET=$$PRESET on the local runner, then make report (LONG=1: with the Table 4.2 audit and relighting)"
 	@echo "make resume     run (or submit) only the cases not yet recorded on this machine"
 	@echo "make regenerate-reference MACHINE=<results/REFERENCE>   the reference machine's records made afresh on this machine"
 	@echo "make scenes     fetch RRV's scenes 3 and 4 (room3.xml, room2.xml, teapot) into SCENES_CACHE (~/.cache/hpcgi/rrv)"
@@ -107,7 +114,7 @@ help:
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
 	@echo "make gpu-import ARCHIVE=FILE   the records of a kit's archive into results/<its machine>/"
-	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $(FUZZ_SECONDS)) with clang's libFuzzer"
+	@echo "make fuzz       run each fuzz target for FUZZ_SECONDS (default $$FUZZ_SECONDS): clang's libFuzzer, the importer's Hypothesis"
 	@echo "make clean      remove build/ and bin/"
 	@echo "variables: CXX MPICXX NVCC CUDA_ARCH OPT PYTHON VENV SANITIZE (e.g. address,undefined) FUZZ_SECONDS"
 
@@ -182,8 +189,11 @@ $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
 	@mkdir -p $(@D)
 	$(FUZZ_CXX) -std=c++17 -g -O1 -I. -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
 	  $(FUZZ_SRC_$*) -o $@ -lpugixml
+# Python targets (Hypothesis, from the venv): tests/fuzz/fuzz_<target>.py; import is make gpu-import's reader.
+FUZZ_PY_TARGETS := import
 fuzz: $(patsubst %,$(FUZZ_BUILD)/fuzz_%,$(FUZZ_TARGETS))
-	tests/fuzz/run $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+	$(NEEDS_DEPS)
+	tests/fuzz/run "$$FUZZ_BUILD" "$$FUZZ_SECONDS" $(FUZZ_TARGETS) $(FUZZ_PY_TARGETS)
 
 deps:
 	@common/deps.sh
@@ -204,17 +214,18 @@ test:
 CHECK_LABEL = label=$$(python3 common/machine_label.py --check "$${RESULTS:-results}" 2>&1) || \
   { echo "$@: $${label\#machine_label: }" >&2; exit 2; }
 reproduce:
-	@$(CHECK_LABEL); echo "reproduce: machine $$label (records in results/$$label/), preset $(PRESET), runner $(RUNNER)"
+	@$(CHECK_LABEL); echo "reproduce: machine $$label (records in results/$$label/), preset $$PRESET, runner $$RUNNER"
 	@$(DIRTY_NOTE)
-	@common/deps.sh --check || common/deps.sh
+	$(NEEDS_DEPS)
 	@$(MAKE) --no-print-directory -j$$(nproc) all
 ifeq ($(RUNNER),slurm)
-	PRESET=$(PRESET) slurm/submit $(EXPERIMENTS)
+	set -f; slurm/submit $$EXPERIMENTS
 else
-	@mkdir -p $(BUILD); rm -f $(BUILD)/reproduce-summary.txt
-	PRESET=$(PRESET) HPCGI_SUMMARY_OUT=$(BUILD)/reproduce-summary.txt slurm/run-local $(EXPERIMENTS); status=$$?; \
-	$(MAKE) --no-print-directory report PRESET=$(PRESET) || status=1; \
-	echo; cat $(BUILD)/reproduce-summary.txt 2>/dev/null; exit $$status
+	@# Each make reproduce has a summary file of its own, so two at once each print their own summary.
+	@set -f; summary=$$(mktemp); trap 'rm -f "$$summary"' EXIT; \
+	HPCGI_SUMMARY_OUT=$$summary slurm/run-local $$EXPERIMENTS; status=$$?; \
+	$(MAKE) --no-print-directory report || status=1; \
+	echo; cat "$$summary"; exit $$status
 endif
 
 # The reference machine's folder changes only here, by name (slurm/regenerate-reference: from a clean tree; where the
@@ -226,9 +237,9 @@ regenerate-reference:
 resume:
 	@$(MAKE) --no-print-directory all
 ifeq ($(RUNNER),slurm)
-	PRESET=$(PRESET) RESUME=1 slurm/submit $(EXPERIMENTS)
+	set -f; RESUME=1 slurm/submit $$EXPERIMENTS
 else
-	PRESET=$(PRESET) slurm/run-local $(EXPERIMENTS)
+	set -f; slurm/run-local $$EXPERIMENTS
 endif
 
 # The bandwidth limit, our solvers per iteration and their peers on this machine, one table of ratios
@@ -236,15 +247,16 @@ endif
 bench:
 	@$(CHECK_LABEL)
 	@$(DIRTY_NOTE)
-	@common/deps.sh --check || common/deps.sh
+	$(NEEDS_DEPS)
 	@$(MAKE) --no-print-directory all
-	PRESET=$(PRESET) BENCH="$(BENCH)" slurm/bench
+	slurm/bench
 
 plots:
-	$(VENV)/bin/python -m analysis tables $(PRESET) $(MACHINE_ARG)
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python -m analysis tables "$$PRESET" $(MACHINE_ARG)
 
 report: plots
-	$(VENV)/bin/python -m analysis report $(PRESET) $(MACHINE_ARG)
+	$(VENV)/bin/python -m analysis report "$$PRESET" $(MACHINE_ARG)
 
 # RRV's scenes 3 and 4 from its public repository at one commit, checked by SHA-256 (RRV_URL=, SCENES_CACHE=).
 scenes:
@@ -253,7 +265,8 @@ scenes:
 # Re-runs a sample of recorded cases here and compares outcome and time with the records (slurm/audit).
 AUDIT_SAMPLE ?= 5
 audit:
-	$(VENV)/bin/python slurm/audit $(PRESET) --sample $(AUDIT_SAMPLE) $(MACHINE_ARG)
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python slurm/audit "$$PRESET" --sample "$$AUDIT_SAMPLE" $(MACHINE_ARG)
 
 clean:
 	rm -rf $(BUILD) $(BIN)
@@ -268,23 +281,24 @@ KIT_OPT    ?= -O3 -march=x86-64-v3
 # make does not rebuild objects when flags change: each configuration (archs, flags, compilers) builds into a folder
 # of its own, so CUDA_ARCHS="80 90" never packs objects compiled for 90 alone.
 KIT_BUILD  ?= build/gpu-kit-obj/$(shell echo '$(CUDA_ARCHS) | $(KIT_OPT) | $(CXX) | $(NVCC)' | md5sum | cut -c1-8)
-RRV_SCENES ?= $(shell radiosity/scenes/rrv/dir)
 KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)) \
                -gencode arch=compute_$(lastword $(CUDA_ARCHS)),code=compute_$(lastword $(CUDA_ARCHS))
+export PRESET RUNNER EXPERIMENTS AUDIT_SAMPLE KIT CUDA_ARCHS FUZZ_SECONDS FUZZ_BUILD
 gpu-kit:
 	@$(if $(HAVE_CUDA),,echo "make gpu-kit: needs nvcc (CUDA 13) on PATH or NVCC=...; none found" >&2; exit 2)
-	@RRV_SCENES="$(RRV_SCENES)" radiosity/scenes/rrv/dir >/dev/null || { echo "make gpu-kit: the kit carries RRV's \
-	scenes, and $(RRV_SCENES) lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
+	@scenes=$$(radiosity/scenes/rrv/dir) || { echo "make gpu-kit: the kit carries RRV's scenes, and $$scenes \
+	lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
 	@$(MAKE) --no-print-directory -f Makefile -f gpukit/link.mk BUILD=$(KIT_BUILD) BIN=$(KIT_BUILD)/bin \
 	  MPICXX=no-mpi-in-the-kit OPT="$(KIT_OPT)" NVCCFLAGS="-O3 -std=c++17 $(KIT_GENCODE) -Xcompiler -fopenmp" \
 	  $(KIT_BUILD)/bin/poisson $(KIT_BUILD)/bin/radiosity $(KIT_BUILD)/bin/stream $(KIT_BUILD)/tests/solve_tests
-	$(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit $(KIT) --cuda-home "$(CUDA_HOME)" --archs "$(CUDA_ARCHS)" \
-	  --rrv-scenes "$(RRV_SCENES)" --cc "$(CC)"
+	scenes=$$(radiosity/scenes/rrv/dir) && $(PYTHON) gpukit/pack.py --build $(KIT_BUILD) --kit "$$KIT" \
+	  --cuda-home "$(CUDA_HOME)" --archs "$$CUDA_ARCHS" --rrv-scenes "$$scenes" --cc "$(CC)"
 
 # Brings a kit's archive home: its records into results/<the GPU node's label>/ (append-only; refuses a truncated
 # archive or a record without a GPU with one line).
 gpu-import:
-	@test -n "$(ARCHIVE)" || { echo "make gpu-import: say which archive: make gpu-import ARCHIVE=FILE" >&2; exit 2; }
-	$(PYTHON) gpukit/import_archive.py "$(ARCHIVE)" --results $(or $(RESULTS),results)
+	@test -n "$$ARCHIVE" || { echo "make gpu-import: say which archive: make gpu-import ARCHIVE=FILE" >&2; exit 2; }
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python gpukit/import_archive.py "$$ARCHIVE" --results "$${RESULTS:-results}"
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

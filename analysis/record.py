@@ -3,6 +3,7 @@ per line with schema, app, params, result, times_s, perf, backend_info and prove
 under an exclusive flock and cut back if the write fails, so a reader never sees half a line."""
 import fcntl
 import json
+import math
 import os
 import platform
 import socket
@@ -21,9 +22,65 @@ ENV_KEYS = tuple(DEFINITION["properties"]["provenance"]["properties"]["env"]["pr
 _validator = []
 
 
+def _refuse_constant(token):
+    raise ValueError(f"{token} is no JSON number (a record's numbers are finite)")
+
+
+def _finite_float(text):
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text[:40]} is beyond a double (a record's numbers are finite)")
+    return value
+
+
+def loads(line):
+    """One record line as JSON, refusing what Python's json would take into medians: the tokens NaN, Infinity and
+    -Infinity, which are no JSON, and numbers beyond a double (1e999), which it reads as infinite. ValueError for
+    those as for any text that is no JSON."""
+    try:
+        return json.loads(line, parse_constant=_refuse_constant, parse_float=_finite_float)
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+
+
+def _nonfinite(value, where=""):
+    """The path of the first NaN or infinite number in a decoded record, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where or "the record"
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for k, v in items:
+        found = _nonfinite(v, f"{where}/{k}" if where else str(k))
+        if found:
+            return found
+    return None
+
+
+def _finite(value):
+    """value with every NaN and infinite float replaced by None, as common/record.cpp (nlohmann::json) writes them."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
+def dumps(rec):
+    """A record as one line of JSON, non-finite numbers written as null (never the NaN token no reader takes)."""
+    return json.dumps(_finite(rec), separators=(",", ":"), allow_nan=False)
+
+
 def validate(rec):
-    """What is wrong with a record against common/record.schema.json (its first error, with where), or None.
+    """What is wrong with a record against common/record.schema.json (its first error, with where), or None. A NaN
+    or infinite number anywhere is wrong too (the schema's bounds refuse infinities only where it names a number).
     Needs the package jsonschema (requirements.txt)."""
+    try:
+        bad = _nonfinite(rec)
+    except RecursionError:
+        return "the record: nested too deeply"
+    if bad:
+        return f"{bad}: a non-finite number (NaN or Infinity)"
     if not _validator:
         import jsonschema
         _validator.append(jsonschema.Draft202012Validator(DEFINITION))
@@ -96,7 +153,7 @@ def append(path, rec):
     """Appends rec as one line to path (parent folders are created), atomically as common/record.cpp does."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    line = (json.dumps(rec, separators=(",", ":")) + "\n").encode()
+    line = (dumps(rec) + "\n").encode()
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
@@ -122,6 +179,6 @@ def add_options(parser):
 def emit(rec, args):
     """The end of every run that makes a record: printed with --json, appended to --record's file."""
     if args.json:
-        print(json.dumps(rec, separators=(",", ":")), flush=True)
+        print(dumps(rec), flush=True)
     if args.record:
         append(args.record, rec)

@@ -4,126 +4,188 @@ being the GPU node's own (its results/<label>/machine.json).
 
     gpukit/import_archive.py ARCHIVE [--results results]
 
-Everything is checked before anything is written: the archive must read to its end (a truncated or damaged one is
-refused), hold one machine's records, every record whole (one JSON object of schema hpcgi-record/1 per line,
-ending in a newline) and carrying the GPU it ran on (backend_info.gpu). Record files are append-only: a record
-already there is not written twice, and no existing byte is changed; an existing machine.json is kept. Exit
-status 0 when imported; 2 with one line when refused (nothing written)."""
+All or nothing, and each record once:
+- The whole archive is checked before a byte is written (gpukit/archive_check.py): its size, its members and what
+  it unpacks to within fixed limits, read to its end (a truncated or damaged one is refused), one machine's records,
+  every record valid against common/record.schema.json and carrying the GPU it ran on (backend_info.gpu).
+- A machine's folder is that machine's only: the archive's machine.json carries the node's machine_id, and an
+  existing results/<label>/ whose machine.json carries no machine_id, or another, is refused (another machine's
+  records, the reference machine's say, are never added to).
+- Imports hold a lock on the results folder, so two at once add each record once; a record already there (the same
+  JSON, key order and spacing aside), or twice in the archive, is written once.
+- Each file is written whole beside itself and renamed over the old one after every file is on disk (fsync), so a
+  full disk leaves every file as it was. An existing machine.json is kept.
+Exit status 0 when imported (or nothing new); 2 with one line when refused (nothing written)."""
 import argparse
+import fcntl
 import json
+import os
+import stat
 import sys
-import tarfile
-import zlib
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from common import machine_label  # noqa: E402
-
-SCHEMA = "hpcgi-record/1"
-
-
-class Refused(Exception):
-    pass
+from analysis.record import loads  # noqa: E402
+from gpukit.archive_check import Refused, check, key, read_archive  # noqa: E402
 
 
-def read_archive(path):
-    """{member name: bytes} of every file, read to the end (so truncation is found here)."""
-    files = {}
+def shown(text):
+    """A path as one printable line (a file name may hold a newline or an escape sequence)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+def _lstat(path):
     try:
-        with tarfile.open(path, "r:gz") as t:
-            for m in t:
-                name = PurePosixPath(m.name)
-                if name.is_absolute() or ".." in name.parts:
-                    raise Refused(f"{path}: member {m.name!r} points outside the archive's folder")
-                if m.isfile():
-                    files[str(name)] = t.extractfile(m).read()
-    except (tarfile.TarError, EOFError, zlib.error, OSError) as e:
-        raise Refused(f"{path} is truncated or damaged ({type(e).__name__}: {e}): nothing imported")
-    return files
+        return os.lstat(path)
+    except FileNotFoundError:
+        return None
 
 
-def check(files, path):
-    """(label, machine.json bytes, {relative records path: [lines]})."""
-    labels = {PurePosixPath(n).parts[1] for n in files if n.startswith("results/") and len(PurePosixPath(n).parts) > 2}
-    if len(labels) != 1:
-        raise Refused(f"{path} holds the records of {len(labels)} machines ({', '.join(sorted(labels)) or 'none'}); "
-                      f"a kit's archive holds one")
-    label = labels.pop()
+def check_owner(dest, plan):
+    """Refuses dest when it is another machine's folder; True when it exists (and is the archive's node's)."""
+    st = _lstat(dest)
+    if st is None:
+        return False
+    if not stat.S_ISDIR(st.st_mode):
+        raise Refused(f"{shown(dest)} is no folder (a link or a file): nothing imported")
+    why = None
     try:
-        machine_label.check(label)
-    except ValueError as e:
-        raise Refused(f"{path}: {e}")
-    machine = files.get(f"results/{label}/machine.json")
-    if machine is None:
-        raise Refused(f"{path} has no results/{label}/machine.json (the GPU node's description)")
+        machine = json.loads((dest / "machine.json").read_bytes())
+        mid = machine.get("machine_id") if isinstance(machine, dict) else None
+        if not isinstance(mid, str):
+            why = "its machine.json carries no machine_id"
+        elif mid != plan.machine_id:
+            why = f"its machine.json is machine {shown(mid)[:16]}'s, the archive's node is {plan.machine_id[:16]}"
+    except (OSError, ValueError, RecursionError):
+        why = "it has no readable machine.json"
+    if why:
+        raise Refused(f"{shown(dest)}/ belongs to another machine ({why}): nothing imported; give the node a label of "
+                      f"its own (MACHINE=<label> gpu-kit/run on the node) and import that archive")
+    return True
+
+
+def existing(target):
+    """(keys of the records already in a records file, its bytes); refuses one that is no plain file or that ends in
+    half a line (an interrupted write of old: a record appended to it would be glued to that half)."""
+    st = _lstat(target)
+    if st is None:
+        return set(), b""
+    if not stat.S_ISREG(st.st_mode):
+        raise Refused(f"{shown(target)} is no plain file: nothing imported")
+    data = target.read_bytes()
+    if data and not data.endswith(b"\n"):
+        raise Refused(f"{shown(target)} ends in half a line: remove that last line, then import again")
+    keys = set()
+    for raw in data.splitlines():
+        try:
+            keys.add(key(loads(raw.decode("utf-8"))))
+        except (ValueError, RecursionError):
+            pass  # a line that is no record is no record of the archive either
+    return keys, data
+
+
+def changes(plan, dest, dest_exists):
+    """The folders to make, the files to write [(path, bytes)], how many records are new, how many were there."""
+    folders, files, added, kept = [dest], [], 0, 0
+    for rel, recs in plan.records.items():
+        target = dest / rel
+        st = _lstat(target.parent)
+        if st is not None and not stat.S_ISDIR(st.st_mode):
+            raise Refused(f"{shown(target.parent)} is no folder (a link or a file): nothing imported")
+        folders.append(target.parent)
+        keys, old = existing(target)
+        new = [line for h, line in recs if h not in keys]
+        kept += len(recs) - len(new)
+        if new:
+            files.append((target, old + "".join(line + "\n" for line in new).encode()))
+            added += len(new)
+    if not dest_exists:
+        files.append((dest / "machine.json", plan.machine))
+    return folders, files, added, kept
+
+
+def _write_synced(path, data):
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o644)
     try:
-        if not json.loads(machine).get("gpu"):
-            raise Refused(f"{path}: results/{label}/machine.json names no GPU: these are no GPU node's records")
-    except ValueError as e:
-        raise Refused(f"{path}: results/{label}/machine.json is no JSON ({e})")
-    records = {}
-    for name, data in sorted(files.items()):
-        p = PurePosixPath(name)
-        if not name.startswith(f"results/{label}/") or p.suffix != ".jsonl":
-            continue
-        if len(p.parts) != 4:
-            raise Refused(f"{path}: {name} is not results/<label>/<experiment>/<preset>.jsonl")
-        text = data.decode("utf-8", errors="replace")
-        if text and not text.endswith("\n"):
-            raise Refused(f"{path}: {name} ends in half a record (no final newline)")
-        lines = text.splitlines()
-        for k, line in enumerate(lines, 1):
-            try:
-                rec = json.loads(line)
-            except ValueError:
-                raise Refused(f"{path}: {name}:{k} is not a whole record (no JSON object)")
-            if not isinstance(rec, dict) or rec.get("schema") != SCHEMA:
-                raise Refused(f"{path}: {name}:{k} is no {SCHEMA} record")
-            if not (rec.get("backend_info") or {}).get("gpu"):
-                raise Refused(f"{path}: {name}:{k} carries no GPU (backend_info.gpu): not a GPU run, nothing imported")
-        records[str(PurePosixPath(*p.parts[1:]))] = lines
-    if not records:
-        raise Refused(f"{path} holds no records")
-    return label, machine, records
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_dir(path):
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def commit(folders, files):
+    """Writes every file beside its target, then renames each over its target: on any failure before the renames
+    (a full disk) the temporary files and the new folders are removed and nothing has changed."""
+    made, temps, target = [], [], None
+    try:
+        for d in folders:
+            if _lstat(d) is None:
+                os.mkdir(d)
+                made.append(d)
+        for target, data in files:
+            tmp = target.with_name(f".{target.name}.gpu-import-{os.getpid()}")
+            temps.append((tmp, target))
+            _write_synced(tmp, data)
+    except OSError as e:
+        for tmp, _ in temps:
+            tmp.unlink(missing_ok=True)
+        for d in reversed(made):
+            os.rmdir(d)
+        raise Refused(f"cannot write {shown(target or e.filename)} ({e.strerror}): nothing imported, nothing "
+                      f"changed") from None
+    for tmp, target in temps:
+        os.replace(tmp, target)
+    for d in sorted({t.parent for _, t in temps} | {f.parent for f in made}):
+        _fsync_dir(d)
+
+
+def locked(results):
+    """An exclusive lock on the results folder (made if missing), held until the returned descriptor is closed."""
+    results.mkdir(parents=True, exist_ok=True)
+    fd = os.open(results, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    return fd
 
 
 def import_archive(path, results):
-    label, machine, records = check(read_archive(path), path)
+    """Imports one archive; returns the line to print. Refused (nothing written) when it may not be imported."""
+    plan, dup = check(read_archive(path))
     results = Path(results)
-    added = kept = 0
-    for rel, lines in records.items():
-        target = results / rel
-        old = set(target.read_text().splitlines()) if target.exists() else set()
-        new = [l for l in lines if l not in old]
-        kept += len(lines) - len(new)
-        if new:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with open(target, "a") as f:  # append-only: existing bytes are never touched
-                f.write("".join(l + "\n" for l in new))
-            added += len(new)
-    mj = results / label / "machine.json"
-    note = ""
-    if not mj.exists():
-        mj.write_bytes(machine)
-    elif mj.read_bytes() != machine:
-        note = f"; {mj} kept as it was (this archive's description differs)"
-    print(f"gpu-import: {added} records into {results / label}/ ({len(records)} files; {kept} already there){note}")
+    dest = results / plan.label
+    fd = locked(results)
+    try:
+        dest_exists = check_owner(dest, plan)
+        folders, files, added, kept = changes(plan, dest, dest_exists)
+        commit(folders, files)
+    finally:
+        os.close(fd)
+    note = f"; {dup} duplicates in the archive written once" if dup else ""
+    return (f"gpu-import: {added} records into {shown(dest)}/ ({len(plan.records)} files; {kept} already there"
+            f"{note})")
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("archive", help="a gpu-kit-<label>.tar.gz made by gpu-kit/run")
     ap.add_argument("--results", default="results", help="the results folder (default results)")
-    a = ap.parse_args()
-    if not Path(a.archive).is_file():
-        print(f"gpu-import: {a.archive}: no such file", file=sys.stderr)
-        sys.exit(2)
+    a = ap.parse_args(argv)
     try:
-        import_archive(a.archive, a.results)
+        print(import_archive(a.archive, a.results))
     except Refused as e:
-        print(f"gpu-import: {e}", file=sys.stderr)
-        sys.exit(2)
+        print(f"gpu-import: {shown(a.archive)}: {e}", file=sys.stderr)
+        return 2
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -173,8 +173,9 @@ def test_a_copy_run_in_a_clean_environment_says_no_gpu_and_writes_only_its_outpu
     assert list((tmp_path / "out").glob("gpu-kit-*.tar.gz")), "the archive is written without a GPU too"
 
 
-def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"):
-    """A kit's output folder with two records of a fake GPU, marked as a test, as gpu-kit/run leaves it."""
+def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)", machine_id="7e57000000000001"):
+    """A kit's output folder with two records of a fake GPU, marked as a test, as gpu-kit/run leaves it (its
+    machine.json carrying the node's machine_id)."""
     rec = lambda i: {"schema": "hpcgi-record/1", "app": "poisson", "params": {"n": 64 * i, "backend": "cuda"},
                      "result": {"converged": True}, "times_s": {"solve": 0.1 * i},
                      "backend_info": {"gpu": gpu},
@@ -184,7 +185,8 @@ def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"
     d = out / "results" / label / "table41"
     d.mkdir(parents=True)
     (d / "paper.jsonl").write_text("".join(json.dumps(rec(i)) + "\n" for i in (1, 2)))
-    (out / "results" / label / "machine.json").write_text(json.dumps({"label": label, "gpu": gpu}))
+    (out / "results" / label / "machine.json").write_text(json.dumps({"label": label, "gpu": gpu,
+                                                                     "machine_id": machine_id}))
     (out / "logs").mkdir()
     (out / "logs" / "progress.log").write_text("test\n")
     (out / "summary.md").write_text("# test\n")
