@@ -24,8 +24,8 @@ def main():
     ap.add_argument("preset", nargs="?", default="quick")
     ap.add_argument("--machine", help="whose records (default: $MACHINE, else this machine)")
     ap.add_argument("--all-records", action="store_true",
-                    help="also use records from dirty trees and unknown commits (left out by default; never for "
-                         "committed tables)")
+                    help="also use records from dirty trees and unknown commits, and disturbed runs (left out by "
+                         "default; never for committed tables)")
     a = ap.parse_args()
     protocol.include_all(a.all_records)
     try:

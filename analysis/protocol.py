@@ -43,7 +43,8 @@ _commits = {}
 
 
 def include_all(on=True):
-    """Keep records from dirty trees and unknown commits (for a developer's look, never for results/)."""
+    """Keep records from dirty trees and unknown commits, and runs flagged as disturbed (for a developer's look and
+    for the tests' own records, never for results/)."""
     _settings["all"] = bool(on) or os.environ.get("ANALYSIS_ALL_RECORDS") == "1"
 
 
@@ -135,7 +136,8 @@ def machine_state(df):
                 df.at[i, "protocol.disturbed"], df.at[i, "protocol.reason"] = True, s.get("reason")
             df.at[i, "protocol.stop"] = stops.get(case[i])
         COUNTS[f]["disturbed"] = int(df.loc[idx, "protocol.disturbed"].sum())
-    return df[~df["protocol.disturbed"]]
+    # A developer's look (--all-records) keeps the disturbed runs too, still counted under each table.
+    return df if _settings["all"] else df[~df["protocol.disturbed"]]
 
 
 def capped(median, lo, hi, stops=()):
