@@ -102,7 +102,6 @@ def groups(preset):
     return out
 
 
-@pytest.mark.xfail(strict=False, reason="reference not yet regenerated under the protocol (issue 31)")
 def test_reference_records_obey_the_protocol():
     files = committed()
     assert files
