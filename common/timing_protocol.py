@@ -7,10 +7,12 @@ its experiment (slurm/run-local): every case's repeat r before any case's repeat
 falls on all of them alike. After round N (the list's repeat count, the least a group holds), a case stops as soon as
 the 95% bootstrap interval of its median lies within +-5% of the median, counting only its answers (exit status 0)
 that were not disturbed (common/timed_run.py: the machine's state beside each run); else it goes on to the cap
-(REPEAT_CAP, default 2N + 1). Its state file then gets one line saying which of the two happened.
+(REPEAT_CAP, default 2N + 1), once it holds N undisturbed answers (rounds past the cap replace disturbed runs, up to
+twice the cap). Its state file then gets one line saying which of the two happened.
 
-    common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP
-        prints "continue", "interval", "cap" or "no-answer"; on all but "continue" appends the group's line
+    common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP [HARD]
+        prints "continue", "interval", "cap" or "no-answer" (HARD, default 2 x CAP: the last round in any case);
+        on all but "continue" appends the group's line
         {"case", "stop", "n", "median_s", "ci_s"} to STATE.
 
 analysis/records.py takes median_ci from here, so the runner's stopping rule and the tables' intervals agree.
@@ -99,14 +101,14 @@ def group(records_path, state_path, case):
     return times, no_answer
 
 
-def decide(records_path, state_path, case, rnd, least, cap):
+def decide(records_path, state_path, case, rnd, least, cap, hard=None):
     times, no_answer = group(records_path, state_path, case)
     if no_answer:
         stop = "no-answer"
     elif rnd >= least and len(times) >= least and interval_met(times):
         stop = "interval"
-    elif rnd >= cap:
-        stop = "cap"
+    elif rnd >= cap and (len(times) >= least or rnd >= (hard or 2 * cap)):
+        stop = "cap"  # at the cap, once the group holds its least count of undisturbed answers (at most HARD)
     else:
         return "continue"
     lo, hi = median_ci(times) if times else (None, None)
@@ -121,18 +123,18 @@ def decide(records_path, state_path, case, rnd, least, cap):
 
 
 def main(argv):
-    if len(argv) != 7 or argv[0] != "decide":
+    if len(argv) not in (7, 8) or argv[0] != "decide":
         print(__doc__.split("\n\n")[2] if argv[:1] in (["-h"], ["--help"]) else
-              "usage: common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP",
+              "usage: common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP [HARD]",
               file=sys.stdout if argv[:1] in (["-h"], ["--help"]) else sys.stderr)
         return 0 if argv[:1] in (["-h"], ["--help"]) else 2
-    _, records, state, case, rnd, least, cap = argv
+    _, records, state, case, rnd, least, cap, *hard = argv
     try:
-        rnd, least, cap = int(rnd), int(least), int(cap)
+        rnd, least, cap, hard = int(rnd), int(least), int(cap), int(hard[0]) if hard else None
     except ValueError:
-        print("timing_protocol: ROUND, MIN and CAP must be integers", file=sys.stderr)
+        print("timing_protocol: ROUND, MIN, CAP and HARD must be integers", file=sys.stderr)
         return 2
-    print(decide(records, state, case, rnd, least, cap))
+    print(decide(records, state, case, rnd, least, cap, hard))
     return 0
 
 
