@@ -7,8 +7,8 @@ its experiment (slurm/run-local): every case's repeat r before any case's repeat
 falls on all of them alike. After round N (the list's repeat count, the least a group holds), a case stops as soon as
 the 95% bootstrap interval of its median lies within +-5% of the median, counting only its answers (exit status 0)
 that were not disturbed (common/timed_run.py: the machine's state beside each run); else it goes on to the cap
-(REPEAT_CAP, default 2N + 1), once it holds N undisturbed answers (rounds past the cap replace disturbed runs, up to
-twice the cap). Its state file then gets one line saying which of the two happened.
+(REPEAT_CAP, default 2N + 1), once it holds at least 5 (and N) undisturbed answers (rounds past the cap replace
+disturbed runs, up to twice the cap). Its state file then gets one line saying which of the two happened.
 
     common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP [HARD]
         prints "continue", "interval", "cap" or "no-answer" (HARD, default 2 x CAP: the last round in any case);
@@ -24,6 +24,7 @@ import sys
 
 LEVEL = 0.95
 TARGET = 0.05  # the interval's half-width, relative to the median
+CAPPED_LEAST = 5  # a group that misses its interval holds at least this many answers (3 do only with it met)
 RESAMPLES = 2000
 SEED = 12345
 # The time that a case's group is judged on, as the tables show it: a solve's setup + solve (+ upload to a GPU: the
@@ -107,8 +108,8 @@ def decide(records_path, state_path, case, rnd, least, cap, hard=None):
         stop = "no-answer"
     elif rnd >= least and len(times) >= least and interval_met(times):
         stop = "interval"
-    elif rnd >= cap and (len(times) >= least or rnd >= (hard or 2 * cap)):
-        stop = "cap"  # at the cap, once the group holds its least count of undisturbed answers (at most HARD)
+    elif rnd >= cap and (len(times) >= max(least, CAPPED_LEAST) or rnd >= (hard or 2 * cap)):
+        stop = "cap"  # at the cap, once the group holds enough undisturbed answers (at most HARD rounds)
     else:
         return "continue"
     lo, hi = median_ci(times) if times else (None, None)
