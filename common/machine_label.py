@@ -144,8 +144,12 @@ def this_machine():
 
 
 def from_record(rec):
-    """The label a record's provenance derives (the label its machine had, unless it ran under MACHINE=...)."""
+    """The label a record belongs to: the one the runner ran it under (HPCGI_MACHINE: MACHINE=name where given), else
+    the one its provenance derives (host, CPU, cores, GPU and the machine's id)."""
     p = rec.get("provenance", {})
+    given = (p.get("env") or {}).get("HPCGI_MACHINE")
+    if given:
+        return given
     gpu = (rec.get("backend_info") or {}).get("gpu")
     return make(p.get("host", "unknown"), p.get("cpu_model", "unknown"), p.get("cpus_online", 0), gpu,
                 (p.get("env") or {}).get("HPCGI_MACHINE_ID"))
