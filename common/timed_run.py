@@ -11,8 +11,9 @@ signal gives 128 + the signal, as a shell reports it), and appends one JSON line
 - others_cpu: the share of the machine's CPU time used by anything but this run while it ran (/proc/stat's busy
   time less the run's own, from wait4), steal: the share stolen by the hypervisor;
 - probe_*: a short memory-bandwidth probe (--probe, bin/stream's triad in GB/s) just before and just after;
-- disturbed: others_cpu above 10% of the machine, steal above 5%, or a probe below 80% of the baseline probe of this
-  session ($HPCGI_PROBE_BASELINE_GBS, measured by slurm/run-local before its first timed case). The 1-minute load
+- disturbed: others_cpu above 10% of the machine, steal above 5%, or both probes below 80% of the baseline: the
+  median of the last 20 probes in the state file (the bandwidth drifts with the VM's neighbours: a run is judged
+  against the minutes around it), else the session's start ($HPCGI_PROBE_BASELINE_GBS, measured by slurm/run-local). The 1-minute load
   average is written beside them but decides nothing: it lags by a minute and counts this study's own runs.
 A disturbed run stays in the records; the tables leave it out of their medians and count it.
 Standard library only. A signal ignored at start stays ignored (the child inherits it)."""
@@ -66,11 +67,30 @@ def judge(others, steal, pb, pa, baseline):
         reasons.append(f"other processes used {100 * others:.0f}% of the CPUs")
     if steal is not None and steal > STEAL_MAX:
         reasons.append(f"the hypervisor stole {100 * steal:.0f}% of the CPU time")
-    if baseline:
-        low = [p for p in (pb, pa) if p is not None and p < PROBE_MIN * baseline]
-        if low:
-            reasons.append(f"memory bandwidth probe {min(low):.1f} GB/s < {PROBE_MIN:.0%} of {baseline:.1f} GB/s")
+    probes = [p for p in (pb, pa) if p is not None]
+    if baseline and probes and all(p < PROBE_MIN * baseline for p in probes):  # before and after: not one dip
+        reasons.append(f"memory bandwidth probes {', '.join(f'{p:.1f}' for p in probes)} GB/s < {PROBE_MIN:.0%} of "
+                       f"{baseline:.1f} GB/s")
     return bool(reasons), "; ".join(reasons) or None
+
+
+def recent_baseline(state, fallback, keep=20):
+    """The median of the last `keep` probes in the state file (the machine's bandwidth drifts with its neighbours:
+    a run is judged against the minutes around it), or `fallback` (the session's start) with fewer than 5."""
+    vals = []
+    try:
+        with open(state, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                try:
+                    d = json.loads(line)
+                except ValueError:
+                    continue
+                if isinstance(d, dict):
+                    vals += [d[k] for k in ("probe_before_gbs", "probe_after_gbs") if isinstance(d.get(k), (int, float))]
+    except OSError:
+        pass
+    vals = sorted(vals[-keep:])
+    return vals[len(vals) // 2] if len(vals) >= 5 else fallback
 
 
 def run(cmd):
@@ -117,6 +137,7 @@ def main(argv):
         baseline = float(os.environ.get("HPCGI_PROBE_BASELINE_GBS") or 0) or None
     except ValueError:
         baseline = None
+    baseline = recent_baseline(d["--state"], baseline)
     la, pb = load1(), probe(probe_cmd)
     t0 = cpu_ticks()
     code, wall, own_cpu = run(cmd)
