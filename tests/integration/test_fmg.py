@@ -109,7 +109,8 @@ def test_bench_table_sets_fmg_beside_mg_pcg_and_the_dst_solver(tmp_path):
     import subprocess
     import sys
     from conftest import ROOT
-    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test")
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test",
+               ANALYSIS_ALL_RECORDS="1")  # records of this tree, clean or not
     res = tmp_path / "results" / "bench-test"
     p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
     assert p.returncode == 0, p.stderr
