@@ -13,8 +13,8 @@ under the same settings disagrees beyond their intervals (analysis/consistency.p
 import argparse
 import sys
 
-from analysis import accuracy, consistency, figure42, machines, mpi_radiosity, protocol, radiosity_tables, records, relight, \
-    report, table41, table42_audit
+from analysis import accuracy, consistency, figure42, machines, mpi_radiosity, poisson_methods, protocol, radiosity_tables, \
+    records, relight, report, table41, table42_audit
 
 
 def main():
@@ -41,7 +41,7 @@ def main():
             known = ", ".join(records.machines()) or "none"
             print(f"analysis: no records of machine {label} in {records.RESULTS} (machines with records: {known}); "
                   "tables are written for the machines' own records only", file=sys.stderr)
-        made = {**table41.write_table(a.preset), **radiosity_tables.write_all(a.preset),
+        made = {**table41.write_table(a.preset), **poisson_methods.write_table(a.preset), **radiosity_tables.write_all(a.preset),
                 "figure42": figure42.write(a.preset), **accuracy.write_all(a.preset),
                 "mpi_radiosity": mpi_radiosity.write_table(a.preset), "table42_audit": table42_audit.write(a.preset)}
         made.update(relight.write_all(a.preset))

@@ -144,7 +144,7 @@ def write(preset):
            f"## Experiments of this preset ({md(preset)})", "", *ex_table, "",
            "## Claims of the report", "", *claims(preset)]
     out += ["", "## Poisson CG", "", include("table41", preset), image("figure41", preset, "Figure 4.1"),
-            include("table41_mg", preset),
+            include("table41_mg", preset), include("poisson_methods", preset),
             "## Radiosity", "", include("table42", preset), include("table43", preset), include("table44", preset),
             include("table45", preset), image("table45", preset, "Table 4.5 as a curve"),
             *table42_audit.report_section(preset, include, image),
