@@ -244,8 +244,9 @@ def build_table45(preset):
     table["ours s"] = table["distribution"].map(lambda d: cell(by.loc[d]) if by is not None and d in by.index else "—")
     table["ratio"] = table["ours s"].map(value) / table["report s"]
     title = f"Table 4.5 ({preset}): hybrid CPU/GPU Jacobi, run time in s"
-    note = " ".join(n for n in (settings.line(df, preset, "the report's: scene 4 on 16 cores and a K20") if len(df)
-                                else "", note) if n)
+    what = "the report's: scene 4 (RRV's room2.xml) on 16 cores and a K20"
+    note = " ".join(n for n in (settings.line(df, preset, what) if len(df) else settings.planned("table45", preset, what),
+                                note) if n)
     if not writing():
         return title, table, [note], s if len(s) else table
     plots_dir().mkdir(parents=True, exist_ok=True)

@@ -14,10 +14,18 @@ SCENES = {1: "scene 1 (our stand-in, radiosity/scenes/scene1.xml: RRV does not s
           3: "scene 3 (RRV's room3.xml, the report's)", 4: "scene 4 (RRV's room2.xml, the report's)"}
 
 
+def _natural(text):
+    """Numbers in their order (2 before 16), text after them in its own."""
+    try:
+        return (0, float(text), "")
+    except ValueError:
+        return (1, 0.0, text)
+
+
 def _values(df, col, fmt=str):
     if col not in df:
         return None
-    vals = sorted({fmt(v) for v in df[col].dropna()}, key=str)
+    vals = sorted({fmt(v) for v in df[col].dropna()}, key=_natural)
     return ", ".join(vals) if vals else None
 
 
@@ -76,3 +84,39 @@ def base(column):
 
 def finite(x):
     return x is not None and isinstance(x, (int, float, np.floating)) and np.isfinite(x)
+
+
+def _case_lines(experiment, preset):
+    from analysis.records import ROOT
+    f = ROOT / "slurm" / "cases" / preset / f"{experiment}.txt" if preset.isidentifier() else None
+    if f is None or not f.exists():
+        return []
+    return [l.split() for l in f.read_text().splitlines() if l.strip() and not l.startswith("#")]
+
+
+def planned(experiment, preset, what=None):
+    """"Settings ...:" for a table whose experiment has no records here, from its case list (slurm/cases/<preset>/)
+    and the form-factor records of its scenes: what would run, so that an empty table still names its settings."""
+    import pandas as pd
+    from analysis.records import SCENE_IDS, load
+    lines = _case_lines(experiment, preset)
+    if not lines:
+        return f"Settings: preset {md(preset)}" + (f"; {what}" if what else "") + "."
+
+    def opt(name, default=None):
+        vals = {l[l.index(name) + 1] if name in l[:-1] else default for l in lines}
+        return sorted(v for v in vals if v is not None)
+    scenes = sorted({a.rsplit("/", 1)[-1] for l in lines for a in l if a.endswith(".xml")})
+    cols = {"scene_id": [SCENE_IDS.get(s) for s in scenes]}
+    ff = load("formfactors", preset)
+    if len(ff) and "params.scene" in ff:
+        ff = ff[ff["params.scene"].map(lambda s: str(s).rsplit("/", 1)[-1]).isin(scenes)]
+        cols.update({c: sorted(set(ff[c].dropna())) for c in ("params.weights", "params.hemicube") if c in ff})
+    cols["params.tol"] = [float(v) for v in opt("--tol")]
+    cols.update({"params.storage": opt("--storage"), "params.precision": opt("--precision", "float")})
+    if not any(cols.values()):
+        return f"Settings: preset {md(preset)}" + (f"; {what}" if what else "") + "."
+    df = pd.concat([pd.Series(v, name=c, dtype=float if c == "params.tol" else object) for c, v in cols.items() if v],
+                   axis=1)
+    head = line(df.dropna(axis=1, how="all"), preset, what)
+    return head.replace("Settings:", "Settings (of the case list; no runs of it used here):", 1)

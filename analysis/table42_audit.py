@@ -14,76 +14,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from analysis import settings  # noqa: E402
 from analysis.radiosity_tables import run_time, write as write_table  # noqa: E402
 from analysis.records import NONE_USED, cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
+from analysis.stop_rules import TOL, parse_rule, replay, rule_values, tol_interval  # noqa: E402,F401  (the audit's API)
 
 EXPERIMENT = "table42-audit"
-TOL = 1e-6
 DEFAULT_RULE = "residual-e"
 SCENE_NAMES = {1: "scene1", 2: "scene2", 3: "room3", 4: "room2"}
-
-
-# ---- the rules, as stop_rule.cpp computes them --------------------------------------------------------------------
-
-def parse_rule(name):
-    base, *mods = name.split("+")
-    return base, "stacked" in mods, "squared" in mods
-
-
-def _arr(v):
-    """A list of per-channel lists (None: not known) as a float array, NaN for None."""
-    return np.array([[np.nan if x is None else x for x in row] for row in v], dtype=float)
-
-
-def rule_values(h, name):
-    """The rule's value for every iterate of history h (a record's result.history)."""
-    base, stacked, squared = parse_rule(name)
-    e2, r02 = np.array(h["e2"], dtype=float), np.array(h["r0_2"], dtype=float)
-    res2, step2, b2 = _arr(h["res2"]), _arr(h["step2"]), _arr(h["b2"])
-    step_inf, b_inf = _arr(h["step_inf"]), _arr(h["b_inf"])
-    k = len(res2)
-    num, den = {
-        "residual-e": (res2, np.tile(e2, (k, 1))),
-        "residual-r0": (res2, np.tile(r02, (k, 1))),
-        "residual-b": (res2, b2),
-        "step-2": (step2, b2),
-        "step-inf": (step_inf ** 2, b_inf ** 2),
-    }[base]
-
-    def one_if_zero(d):
-        return np.where(d == 0, 1.0, d)
-
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if stacked:
-            if base == "step-inf":  # the largest channel; NaN stays NaN (np.max propagates it)
-                n, d = np.max(num, axis=1), np.max(den, axis=1)
-            else:
-                n, d = num.sum(axis=1), den.sum(axis=1)
-            v = np.sqrt(n / one_if_zero(d))
-        else:
-            v = np.sqrt(num / one_if_zero(den))
-            v = np.where(np.isnan(v).any(axis=1), np.nan, np.max(v, axis=1))
-    return v ** 2 if squared else v
-
-
-def replay(h, name, tol=TOL):
-    """The first iteration whose rule value is <= tol (None: none in this history)."""
-    v = rule_values(h, name)
-    hits = np.nonzero(v <= tol)[0]
-    return int(h["iteration"][hits[0]]) if len(hits) else None
-
-
-def tol_interval(h, name, count):
-    """The tolerances for which `name` stops this history at exactly `count`: [v_count, min_{k<count} v_k)."""
-    v = rule_values(h, name)
-    it = list(h["iteration"])
-    if count not in it:
-        return None
-    i = it.index(count)
-    before = v[:i][~np.isnan(v[:i])]
-    if np.isnan(v[i]):
-        return None
-    return v[i], (before.min() if len(before) else math.inf)
 
 
 # ---- the records --------------------------------------------------------------------------------------------------
@@ -342,14 +280,17 @@ def verdict(df, counts):
 
 
 def write(preset):
+    from analysis.radiosity_tables import solves
     t = table42_with_gs(preset)
     if not t.empty:
         write_table("table42_gs", preset, "Table 4.2 with Gauss-Seidel (OpenMP, AOS, 1e-6; run time: setup + solve)",
-                    t, ["Times: median [95% interval of the median] n=runs on this machine; the report's on one maya node. sor: omega "
-                        "1.4 on one thread (case list table42)."])
+                    t, [settings.line(solves("table42", preset), preset, "the report's Jacobi on 16 threads"),
+                        "Times: median [95% interval of the median] n=runs on this machine; the report's on one maya "
+                        "node. sor: omega 1.4 on one thread (case list table42)."])
     df = runs(preset)
     if df.empty:
         return None if t.empty else t
+    setting = settings.line(df, preset, "each audit solve run once (n=1): iteration counts, not times")
     counts = report_counts()
     ok = df[df["result.status"] == "converged"]
     bad = ok[ok["replayed"] != ok["result.iterations"]]
@@ -359,19 +300,21 @@ def write(preset):
              ("." if bad.empty else f" (not in: {', '.join(f'{r.method} {r.rule}' for r in bad.itertuples())}).") +
              ("" if failed.empty else " Not converged: " + ", ".join(
                  f"{r['method']}{' omega %g' % r['params.omega'] if r['method'] == 'sor' else ''} on "
-                 f"{int(r['threads'])} threads: {r['result.status']}" for _, r in failed.iterrows()) + ".")]
+                 f"{int(r['threads'])} threads: {r['result.status']}" for _, r in failed.iterrows()) + "."), setting]
     write_table("table42_audit_rules", preset, "Table 4.2 audited: stopping rule x start -> iterations",
                 rule_table(df), notes)
     write_table("table42_audit_interval", preset, "The tolerance that gives the report's counts (default rule)",
                 interval_table(df, counts), ["Rule residual-e: ||e - A b||/||e|| per channel, the largest. "
                                              "'bicgstab there', 'jacobi there': the other method's count at the "
                                              "interval's geometric middle, replayed from its history (BiCG-STAB's "
-                                             "and the Jacobi column after it: the double runs to 1e-10)."])
+                                             "and the Jacobi column after it: the double runs to 1e-10).", setting])
     write_table("table42_audit_gs", preset, "Gauss-Seidel beside Jacobi and BiCG-STAB (default rule, 1e-6, float)",
                 gauss_seidel_table(df), ["openmp Gauss-Seidel: Gauss-Seidel inside each thread's block of rows, "
-                                         "Jacobi between blocks, so its count depends on the thread count."])
+                                         "Jacobi between blocks, so its count depends on the thread count.",
+                                         setting])
     plot(preset, df, counts)
-    (tables_dir() / f"table42_audit_verdict_{preset}.md").write_text("\n".join(verdict(df, counts)) + "\n")
+    (tables_dir() / f"table42_audit_verdict_{preset}.md").write_text("\n".join([*verdict(df, counts), "", setting])
+                                                                     + "\n")
     return df
 
 
@@ -398,9 +341,11 @@ def report_section(preset, include, image):
            "(`--history`); case list `table42-audit`.", ""]
     if df.empty:
         return out + [f"No table42-audit records used for this preset ({NONE_USED}; to run them: `slurm/run-local formfactors "
-                      "table42-audit-formfactors table42-audit`).", "", include("table42_gs", preset), *fastest_lines(preset), ""]
+                      "table42-audit-formfactors table42-audit`).", settings.planned(EXPERIMENT, preset), "",
+                      include("table42_gs", preset), *fastest_lines(preset), ""]
     counts = report_counts()
     out += ["### Verdict", "", *verdict(df, counts), "",
+            settings.line(df, preset, "each audit solve run once (n=1): iteration counts, not times"), "",
             include("table42_audit_rules", preset), include("table42_audit_interval", preset),
             include("table42_audit_gs", preset), include("table42_gs", preset), *fastest_lines(preset), "",
             image("table42_audit", preset, "Residual histories with the report's counts"), ""]
