@@ -15,12 +15,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import LogLocator  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis import protocol, settings  # noqa: E402
-from analysis.escape import md  # noqa: E402
+from analysis import settings  # noqa: E402
+from analysis.extremes import extreme_outcomes, extremes  # noqa: E402
 from analysis.radiosity_tables import write  # noqa: E402
-from analysis.records import NONE_USED, load, plots_dir  # noqa: E402
+from analysis.records import cell, load, median_ci, plots_dir, summarise  # noqa: E402
 
 SOLVER_SWEEPS = ("accuracy-tolerance", "accuracy-precision", "accuracy-threshold")
 FF_SWEEPS = ("accuracy-hemicube", "accuracy-mesh")
@@ -72,9 +73,11 @@ def solves(preset):
     df["setting"] = df.apply(setting, axis=1)
     df["measured_s"] = df["times_s.setup"] + df["times_s.solve"]
     df["time_s"] = solver_time(df)
+    df = df.join(time_interval(df))
     hemi = hemicube_times(preset)
     in_ff = df["experiment"].isin(FF_SWEEPS)
-    df.loc[in_ff, "time_s"] += df.loc[in_ff, "params.ff_file"].map(lambda f: hemi.get(Path(f).name, np.nan))
+    for c in ("time_s", "time_lo", "time_hi"):
+        df.loc[in_ff, c] += df.loc[in_ff, "params.ff_file"].map(lambda f: hemi.get(Path(f).name, np.nan))
     df["scene"] = df["params.scene"].map(lambda s: Path(s).stem)
     g = df.groupby(["scene", "experiment", "setting"], sort=False)
     out = g.agg(time_s=("time_s", "median"), measured_s=("measured_s", "median"),
@@ -84,8 +87,10 @@ def solves(preset):
                 tol=("params.tol", "first"), steps=("params.steps", "first"), storage=("params.storage", "first"),
                 ff_precision=("params.ff_precision", "first"), threshold=("params.threshold", "first"),
                 hemicube=("params.hemicube", "first"), divide=("params.divide", "first"),
-                patches=("params.patches", "first"), repeats=("time_s", "size")).reset_index()
+                patches=("params.patches", "first"), repeats=("time_s", "size"), time_lo=("time_lo", "first"),
+                time_hi=("time_hi", "first"), time_n=("time_n", "first")).reset_index()
     out["family"] = np.where(out["experiment"].isin(FF_SWEEPS), "form factors", "solver")
+    out.attrs["settings"] = settings.line(df[df["scene"].isin(swept_scenes(out))], preset)
     return out
 
 
@@ -107,6 +112,23 @@ def solver_time(df):
     setup = df["times_s.setup"].groupby(keys).transform("median")
     modelled = setup + df["result.iterations"] * per_it
     return modelled.where(modelled.notna(), df["measured_s"])
+
+
+def time_interval(df):
+    """Per row, the 95% interval and n of its modelled time: the bootstrap interval of the median over the runs j of
+    its configuration of setup_j + the row's iterations x time per iteration_j (NaN below 3 runs)."""
+    cols = [c for c in CONFIG if c in df.columns]
+    keys = df[cols].astype(str).agg("|".join, axis=1)
+    per_it = df["times_s.solve"] / df["result.iterations"].where(df["result.iterations"] > 0)
+    lo, hi, n = [], [], []
+    for i, k in zip(df.index, keys):
+        mine = keys == k
+        vals = (df.loc[mine, "times_s.setup"] + df.loc[i, "result.iterations"] * per_it[mine]).dropna()
+        ci = median_ci(vals) if len(vals) >= 3 else (np.nan, np.nan)
+        lo.append(ci[0])
+        hi.append(ci[1])
+        n.append(len(vals))
+    return pd.DataFrame({"time_lo": lo, "time_hi": hi, "time_n": n}, index=df.index)
 
 
 def is_default(r, hemicube):
@@ -151,9 +173,11 @@ def plot(preset, df):
                 ax.set_axis_off()
                 continue
             f["shown"] = f["error"].clip(lower=ERROR_FLOOR)
-            for sweep, s in f.groupby("experiment"):
-                ax.scatter(s["time_s"], s["shown"], marker=MARKERS[sweep], s=22, alpha=0.75,
-                           label=sweep.replace("accuracy-", ""))
+            for sweep, s in f.groupby("experiment"):  # x bars: the 95% interval of the modelled time
+                xerr = [(s["time_s"] - s["time_lo"]).fillna(0).clip(lower=0),
+                        (s["time_hi"] - s["time_s"]).fillna(0).clip(lower=0)]
+                ax.errorbar(s["time_s"], s["shown"], xerr=xerr, fmt=MARKERS[sweep], ms=5, alpha=0.8, capsize=2,
+                            elinewidth=0.8, label=sweep.replace("accuracy-", ""))
             front = pareto(f)
             ax.step(front["time_s"], front["shown"], where="post", color="k", lw=1, label="Pareto front")
             dflt = f[f.apply(lambda r: is_default(r, hemicube), axis=1)]
@@ -164,6 +188,8 @@ def plot(preset, df):
                 ax.axhline(t, color="grey", lw=0.5, ls=":")
             ax.set_xscale("log")
             ax.set_yscale("log")
+            for axis in (ax.xaxis, ax.yaxis):  # a tick at every decade
+                axis.set_major_locator(LogLocator(base=10, numticks=40))
             ax.set_xlabel("setup + iterations x time per iteration (s)" if family == "solver"
                           else "hemicube + setup + iterations x time per iteration (s)")
             ax.set_ylabel("max relative error against the reference")
@@ -187,15 +213,23 @@ def cheapest(preset, df):
             row = {"scene": scene, "settings": family, "target error": f"{t:.0e}"}
             if len(ok):
                 best = ok.iloc[0]
-                row.update({"cheapest setting": best["setting"], "time (s)": best["time_s"], "error": best["error"]})
+                row.update({"cheapest setting": best["setting"], "time (s)": time_cell(best), "error": best["error"]})
             else:
-                row.update({"cheapest setting": "none reaches it", "time (s)": np.nan, "error": np.nan})
+                row.update({"cheapest setting": "none reaches it", "time (s)": "—", "error": np.nan})
             rows.append(row)
     table = pd.DataFrame(rows)
     return write("accuracy_cheapest", preset, f"Cheapest setting that reaches each error ({preset})", table, [
         TIME_NOTE + " Error against the converged float64 solution on the same form factors. Form-factor "
         "settings: time = hemicube + the solve's time as above, error against the finest hemicube or mesh of the "
-        "sweep. One thread per solve in the quick preset."])
+        "sweep. One thread per solve in the quick preset. time (s): median [95% interval] n, the interval and n "
+        "those of its configuration's runs (setup + the setting's iterations x each run's time per iteration).",
+        df.attrs.get("settings", "")])
+
+
+def time_cell(r):
+    """A setting's modelled time as a timing cell: median [interval] n=runs of its configuration."""
+    return cell({"median": r["time_s"], "ci_low": r["time_lo"], "ci_high": r["time_hi"], "repeats": r["time_n"],
+                 "capped": False})
 
 
 def sweeps_table(preset, df):
@@ -217,6 +251,10 @@ def room3_storage(preset):
         mb=("result.matrix_storage_bytes", "median"), peak=("perf.peak_rss_bytes", "median"),
         build=("times_s.ff_build", "median"), solve=("times_s.solve", "median"),
         iterations=("result.iterations", "median"), error=("result.error_vs_reference", "median")).reset_index()
+    keys = ["params.threshold", "params.storage"]
+    for col, what in (("build", "times_s.ff_build"), ("solve", "times_s.solve")):
+        cells = {(r["params.threshold"], r["params.storage"]): cell(r) for r in summarise(df, keys, what).to_dict("records")}
+        g[col] = [cells.get(k, "—") for k in zip(g["params.threshold"], g["params.storage"])]
     table = pd.DataFrame({
         "threshold": g["params.threshold"].map(lambda x: f"{x:g}"), "storage": g["params.storage"],
         "kept F_ij": g["kept"].astype(int), "density": g["density"], "F in memory (MB)": g["mb"] / 1e6,
@@ -225,55 +263,8 @@ def room3_storage(preset):
     return write("accuracy_room3_storage", preset, f"room3.xml: form factors in dense and CSR storage ({preset})",
                  table, ["Jacobi to 1e-6 in float; error against the float64 solution converged to 1e-12 on the "
                          "unthresholded form factors. Peak RSS includes the form-factor file's dense float32 "
-                         "values, which every run reads whole before building CSR."])
-
-
-def extremes(preset):
-    df = load("extremes", preset)
-    if df.empty:
-        return None
-    rows = []
-    rad = df[df["app"] == "radiosity"]
-    for _, r in rad.iterrows():
-        name = Path(r["params.scene"]).stem
-        rho = float(name[len("box_rho"):]) if name.startswith("box_rho") else 0.5
-        emission = float(name[len("box_emission"):]) if name.startswith("box_emission") else 1.0
-        exact = emission / (1 - rho)
-        b = r.get("result.radiosity_max")
-        far = max(abs(x - exact) for x in (r["result.radiosity_min"] + r["result.radiosity_max"])) / exact \
-            if isinstance(b, list) else np.nan
-        steps = math.log(r["params.tol"]) / math.log(rho) if r["params.method"] == "jacobi" else np.nan
-        rows.append({"case": name, "method": r["params.method"], "precision": r["params.precision"],
-                     "outcome": outcome(r), "iterations": r["result.iterations"],
-                     "log(tol)/log(rho)": steps,
-                     "B": r["result.radiosity_max"][0] if isinstance(b, list) else np.nan, "E/(1-rho)": exact,
-                     "error vs E/(1-rho)": far, "error vs converged F": r.get("result.error_vs_reference"),
-                     "time (s)": r["times_s.solve"]})
-    for _, r in df[df["app"] == "poisson"].iterrows():
-        rows.append({"case": f"poisson N={int(r['params.n'])}", "method": "cg", "precision": r["params.precision"],
-                     "outcome": outcome(r), "iterations": r["result.iterations"],
-                     "B": np.nan, "E/(1-rho)": np.nan,
-                     "error vs E/(1-rho)": np.nan, "error vs converged F": np.nan,
-                     "true residual": r.get("result.true_rel_residual"), "max |u - u_h|": r.get("result.error_inf"),
-                     "time (s)": r["times_s.solve"]})
-    table = pd.DataFrame(rows)
-    return write("extremes", preset, f"Extremes ({preset})", table, [settings.line(df, preset), protocol.note(df["file"]),
-        "Closed boxes: 192 patches, hemicube R = 256, whose rows sum to s within about 1e-5 of 1, so the exact answer "
-        "of their F is E/(1 - rho s), and E/(1 - rho) is off by about rho (s - 1)/(1 - rho). Poisson: CG to 1e-6, "
-        "error against the exact solution u = sin^2(pi x) sin^2(pi y). outcome: \"answer\" for exit status 0, else "
-        "\"no answer\" with the exit status (3 numerical failure, 4 not converged within --max-iter, 5 disagreed with "
-        "its float64 check) and the run's own reason; a float run that stopped before its tolerance is flagged "
-        "\"stopped before tol\" whatever its exit status."])
-
-
-def outcome(r):
-    """A run's outcome in words: its exit status and reason, and a flag where it stopped before its tolerance."""
-    status = str(r.get("result.status"))
-    text = "answer (exit 0)" if r["exit_status"] == 0 else \
-        f"no answer (exit {int(r['exit_status'])}: {r.get('result.exit_reason') or status})"
-    if status != "converged":
-        text += f", stopped before tol ({status})"
-    return text
+                         "values, which every run reads whole before building CSR. build, solve: median [95% "
+                         "interval] n=runs (no interval below 3 runs).", settings.line(df, preset)])
 
 
 def write_all(preset):
@@ -286,48 +277,6 @@ def write_all(preset):
     made["accuracy_cheapest"] = cheapest(preset, df)
     made["accuracy_sweeps"] = sweeps_table(preset, df)
     return made
-
-
-def extreme_outcomes(preset):
-    """The extremes' outcomes in words, from the records."""
-    df = load("extremes", preset)
-    if df.empty:
-        return [f"No extremes records used for this preset ({NONE_USED})."]
-    lines = []
-    rad = df[df["app"] == "radiosity"]
-    box = rad[rad["params.scene"].str.contains("box_rho") & (rad["params.method"] == "jacobi")]
-    def answered(r):  # a run that is no answer (exit 3, 4, 5) has no radiosity to quote: its reason instead
-        return isinstance(r.get("result.radiosity_max"), list)
-
-    def no_answer(r, what):
-        return (f"- {what}: no answer, exit status {int(r.get('result.exit_status', 0))} after "
-                f"{r['result.iterations']} iterations: {md(r.get('result.exit_reason', r['result.status']))}")
-
-    for _, r in box.sort_values(["params.scene", "params.precision"]).iterrows():
-        rho = float(Path(r["params.scene"]).stem[len("box_rho"):])
-        if not answered(r):
-            lines.append(no_answer(r, f"closed box rho = {rho:g}, Jacobi in {r['params.precision']} to "
-                                      f"{r['params.tol']:g}"))
-            continue
-        b = r["result.radiosity_max"][0]
-        lines.append(f"- closed box rho = {rho:g}, Jacobi in {r['params.precision']} to {r['params.tol']:g}: "
-                     f"{md(r['result.status'])} after {r['result.iterations']} steps (log(tol)/log(rho) = "
-                     f"{math.log(r['params.tol']) / math.log(rho):.0f}), B = {b:.6g} against E/(1 - rho) = "
-                     f"{1 / (1 - rho):.6g} ({abs(b * (1 - rho) - 1):.2%} off: the hemicube's row sums), "
-                     f"{r['result.error_vs_reference']:.2g} from the converged solution of the same F")
-    for _, r in rad[~rad["params.scene"].str.contains("box_rho")].iterrows():
-        if not answered(r):
-            lines.append(no_answer(r, md(f"{Path(r['params.scene']).stem}, {r['params.method']} in {r['params.precision']}")))
-            continue
-        lines.append(f"- {md(Path(r['params.scene']).stem)}, {md(r['params.method'])} in {md(r['params.precision'])}: "
-                     f"{md(r['result.status'])} after {r['result.iterations']} iterations, B = "
-                     f"{r['result.radiosity_min'][0]:.6g} ... {r['result.radiosity_max'][0]:.6g}, "
-                     f"{r['result.error_vs_reference']:.2g} from the converged solution")
-    for _, r in df[df["app"] == "poisson"].iterrows():
-        lines.append(f"- Poisson CG N = {int(r['params.n'])} in {md(r['params.precision'])}: {md(r['result.status'])} after "
-                     f"{r['result.iterations']} iterations, recursive residual {r['result.rel_residual']:.2g}, true "
-                     f"residual {r['result.true_rel_residual']:.2g}, max |u - u_h| = {r['result.error_inf']:.3g}")
-    return lines
 
 
 def report_section(preset, include, image):

@@ -3,7 +3,7 @@ exit status and reason instead of failing (found by a fresh clone's make reprodu
 rho = 0.9999 stagnates, exit 3)."""
 import pandas as pd
 
-from analysis import accuracy
+from analysis import extremes
 
 
 def test_extremes_quote_a_no_answer_run_by_its_reason(monkeypatch):
@@ -15,8 +15,8 @@ def test_extremes_quote_a_no_answer_run_by_its_reason(monkeypatch):
              "params.precision": "double", "params.tol": 1e-6, "result.status": "converged", "result.iterations": 131,
              "result.exit_status": 0, "result.exit_reason": "", "result.radiosity_max": [10.0, 10.0, 10.0],
              "result.error_vs_reference": 1e-7}]
-    monkeypatch.setattr(accuracy, "load", lambda experiment, preset: pd.DataFrame(rows))
-    lines = accuracy.extreme_outcomes("quick")
+    monkeypatch.setattr(extremes, "load", lambda experiment, preset: pd.DataFrame(rows))
+    lines = extremes.extreme_outcomes("quick")
     assert len(lines) == 2
     assert "rho = 0.9, Jacobi in double" in lines[0] and "B = 10" in lines[0]
     assert "rho = 0.9999" in lines[1] and "no answer, exit status 3" in lines[1] and "stalled" in lines[1]
