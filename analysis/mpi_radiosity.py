@@ -15,7 +15,7 @@ import pandas as pd  # noqa: E402
 
 from analysis import protocol, settings  # noqa: E402
 from analysis.escape import md, md_table  # noqa: E402
-from analysis.records import load, plots_dir, tables_dir  # noqa: E402
+from analysis.records import cell, load, plots_dir, summarise, tables_dir  # noqa: E402
 
 MIB = 2.0 ** 20
 
@@ -67,6 +67,25 @@ def records(preset):
     return ff, sv
 
 
+def with_interval(t, df, keys, src, col, scale=1.0):
+    """t with the 95% interval of the median of df[src] per keys beside its column col (col lo, col hi, col n,
+    col capped), scaled like col: the csv keeps them, the markdown shows them in one cell (shown)."""
+    s = summarise(df.assign(_v=df[src] * scale), keys, "_v")
+    s = s.rename(columns={"ci_low": f"{col} lo", "ci_high": f"{col} hi", "repeats": f"{col} n",
+                          "capped": f"{col} capped"})
+    return t.merge(s[keys + [f"{col} lo", f"{col} hi", f"{col} n", f"{col} capped"]], on=keys, how="left")
+
+
+def shown(t, cols):
+    """The markdown view of t: each of cols as median [95% interval] n=runs, its interval columns and runs dropped."""
+    t = t.copy()
+    for c in cols:
+        t[c] = [cell({"median": m, "ci_low": lo, "ci_high": hi, "repeats": n, "capped": cap}, ".4g")
+                for m, lo, hi, n, cap in zip(t[c], t[f"{c} lo"], t[f"{c} hi"], t[f"{c} n"], t[f"{c} capped"])]
+        t = t.drop(columns=[f"{c} lo", f"{c} hi", f"{c} n", f"{c} capped"])
+    return t.drop(columns=["runs"])
+
+
 def formfactor_table(ff):
     keys = ["series", "n", "ranks"]
     g = ff.groupby(keys, dropna=False)
@@ -80,6 +99,7 @@ def formfactor_table(ff):
     base = t[(t["series"] == "strong") & (t["ranks"] == 1)]["hemicube s"]
     t["speedup vs P=1"] = np.where(t["series"] == "strong", base.iloc[0] / t["hemicube s"] if len(base) else np.nan,
                                    np.nan)
+    t = with_interval(t, ff, keys, "times_s.hemicube", "hemicube s")
     return t.sort_values(["series", "n", "ranks"])
 
 
@@ -94,6 +114,8 @@ def solve_table(sv):
                  "peak RSS per rank MiB": ("peak RSS per rank MiB", "max"),
                  "agreed": ("verify.agreed", "all"), "runs": ("times_s.solve", "size")}).reset_index()
     t["ms/iteration"] *= 1e3
+    t = with_interval(t, sv, keys, "times_s.per_iteration", "ms/iteration", 1e3)
+    t = with_interval(t, sv, keys, "times_s.solve", "solve s")
     return t.rename(columns={"params.method": "method"}).sort_values(["series", "method", "n", "ranks"])
 
 
@@ -135,22 +157,27 @@ def growth_notes(ff, sv):
     return notes
 
 
+def _bars(ax, g, col, scale, fmt, label):
+    """The median of g[col] per rank count, its 95% interval as error bars."""
+    m = summarise(g.assign(_v=g[col] * scale), ["ranks"], "_v").sort_values("ranks")
+    err = [(m["median"] - m["ci_low"]).fillna(0).clip(lower=0), (m["ci_high"] - m["median"]).fillna(0).clip(lower=0)]
+    ax.errorbar(m["ranks"], m["median"], yerr=err, fmt=fmt, capsize=3, label=label)
+
+
 def plot(ff, sv, preset):
     plots_dir().mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     ax = axes[0]
     for (ser, meth), g in sv[sv["series"].isin(["strong", "weak"])].groupby(["series", "params.method"]):
-        m = g.groupby("ranks")["times_s.per_iteration"].median() * 1e3
-        ax.plot(m.index, m.values, "o-" if ser == "strong" else "s--", label=f"{meth}, {ser}")
+        _bars(ax, g, "times_s.per_iteration", 1e3, "o-" if ser == "strong" else "s--", f"{meth}, {ser}")
     ax.set_xlabel("MPI ranks P")
-    ax.set_ylabel("ms per iteration")
+    ax.set_ylabel("ms per iteration (median, bars: 95% interval)")
     ax.set_title("solve: time per iteration")
     ax.legend(fontsize=7)
     ax = axes[1]
     if len(ff):
         for ser, g in ff[ff["series"].isin(["strong", "weak"])].groupby("series"):
-            m = g.groupby("ranks")["times_s.hemicube"].median()
-            ax.plot(m.index, m.values, "o-" if ser == "strong" else "s--", label=ser)
+            _bars(ax, g, "times_s.hemicube", 1.0, "o-" if ser == "strong" else "s--", ser)
         ax.legend(fontsize=7)
     ax.set_xlabel("MPI ranks P")
     ax.set_ylabel("hemicube s (slowest rank)")
@@ -191,13 +218,14 @@ def write_table(preset):
         t = formfactor_table(ff)
         frames.append(t.assign(command="formfactors"))
         out += ["Form factors (`mpirun -np P bin/radiosity formfactors`): hemicube time of the slowest rank, F and "
-                "peak resident memory of the largest rank.", "", md_table(t), ""]
+                "peak resident memory of the largest rank; times: median [95% interval of the median] n=runs.", "",
+                md_table(shown(t, ["hemicube s"])), ""]
     if not sv.empty:
         t = solve_table(sv)
         frames.append(t.assign(command="solve"))
         out += ["Solves to 1e-6 (`--backend mpi`; \"one process\": openmp), float, AOS; received: the other ranks' "
-                "rows of every vector gathered, per iteration, on the rank that receives most.", "",
-                md_table(t), ""]
+                "rows of every vector gathered, per iteration, on the rank that receives most; times: median [95% "
+                "interval of the median] n=runs.", "", md_table(shown(t, ["ms/iteration", "solve s"])), ""]
         plot(ff, sv, preset)
     hosts = sorted(set(pd.concat([ff, sv])["provenance.host"]))
     files = pd.concat([ff, sv])["file"] if "file" in pd.concat([ff, sv]) else []
