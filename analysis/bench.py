@@ -11,7 +11,7 @@ import pandas as pd
 
 from analysis import consistency
 from analysis.escape import md, md_table
-from analysis.records import load, tables_dir
+from analysis.records import load, median_ci, tables_dir
 
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
 # of 4·N² bytes at the triad bandwidth, >= 2.5x the best NumPy way, and >= 1.7x faster with F in float16.
@@ -34,6 +34,12 @@ def _on(df, host):
 
 def _median(df, col):
     return float(df[col].median())
+
+
+def _ci(df, col, scale=1.0):
+    """The bootstrap 95% interval of the median of df[col] (times scale), as "[lo, hi]"; empty below 3 repeats."""
+    v = df[col].dropna() * scale
+    return "[{:.3g}, {:.3g}]".format(*median_ci(v)) if len(v) >= 3 else ""
 
 
 def _limit_next_to(stream, recs, col="perf.triad_GBps"):
@@ -71,7 +77,8 @@ def sparse_rows(preset, host, stream):
                         "bytes per entry": (nbytes - (16 if storage == "runs" else 8) *
                                             (int(r["params.patches"].iloc[0]) + 1)) /
                         float(r["result.kept"].iloc[0]) if storage != "dense" else None,
-                        "ms per step": 1e3 * t, "GB/s": nbytes / t / 1e9,
+                        "ms per step": 1e3 * t, "95% interval (ms)": _ci(r, "times_s.per_iteration", 1e3),
+                        "GB/s": nbytes / t / 1e9,
                         "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
                         "repeats": len(r)})
     csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
@@ -109,7 +116,8 @@ def rows(preset):
         for k, (name, recs, b, mine, t, triad) in enumerate(entries):
             gbps = b / t / 1e9 if b else None
             out.append({"problem": title if k == 0 else "", "solver": ("ours: " if mine else "") + name,
-                        "ms per iteration": 1e3 * t, "GB/s": gbps, "triad next to it": triad if mine and b else None,
+                        "ms per iteration": 1e3 * t, "95% interval (ms)": _ci(recs, "times_s.per_iteration", 1e3),
+                        "GB/s": gbps, "triad next to it": triad if mine and b else None,
                         "of triad": gbps / triad if mine and b else None, "time / ours": t / fastest[4],
                         "repeats": len(recs)})
         return fastest, {name: t for name, _, _, mine, t, _ in entries if not mine}
@@ -266,6 +274,7 @@ def mg_rows(preset, host):
         setup = recs["times_s.setup"] + (recs["times_s.pc_setup"].fillna(0) if "times_s.pc_setup" in recs else 0)
         n = float(recs["params.n"].iloc[0])
         return {"solver": name, "iterations": it, "time to solution (s)": t,
+                "95% interval (s)": _ci(recs, "times_s.solve"),
                 "ms per iteration": 1e3 * _median(recs, "times_s.per_iteration"),
                 "setup (s)": float(setup.fillna(0).median()), "DOF/s": n * n / t if t > 0 else None,
                 "error ‖u − u_h‖∞": _median(recs, "result.error_inf"),
@@ -338,7 +347,8 @@ def write(preset):
             f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "
             f"triad next to it: the STREAM triad bandwidth measured just before and just after the case (median); "
             f"of triad: GB/s over that (ours/limit); time / ours: against our fastest on the "
-            f"same problem (peer/ours, > 1: ours is faster).")
+            f"same problem (peer/ours, > 1: ours is faster). 95% interval: the bootstrap interval of the median "
+            f"(none below 3 repeats); repeats: n.")
     text = f"### make bench ({preset})\n\n{head}\n\n{table}\n\n" + "".join(f"- {t}\n" for t in targets)
     if mg_out:
         text += (f"\n#### Multigrid against PETSc, hypre and the direct solver ({preset})\n\nTime to solution: the "
