@@ -9,7 +9,7 @@ import pandas as pd
 from analysis.escape import md
 from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
 from analysis import claims as claims_mod
-from analysis import consistency, protocol
+from analysis import consistency, protocol, settings
 from analysis.records import NONE_USED, ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
     tables_dir
 
@@ -79,9 +79,27 @@ def how_to_read(preset, df, differ):
     return out + [""]
 
 
+# A table's title and the experiment whose case list says its settings, for a table that has no records here.
+EMPTY = {"table41": ("Table 4.1: Poisson CG to 1e-6, run time in s", "table41"),
+         "table41_mg": ("MG-PCG: Poisson CG preconditioned by one multigrid V-cycle", "table41"),
+         "poisson_methods": ("Time to solution per method: Poisson to 1e-6", "table41"),
+         "table42": ("Table 4.2: OpenMP Jacobi vs. BiCG-STAB to 1e-6", "table42"),
+         "table43": ("Table 4.3: AOS Jacobi to 1e-6", "table43"), "table44": ("Table 4.4: SOA Jacobi to 1e-6", "table44"),
+         "table45": ("Table 4.5: hybrid CPU/GPU Jacobi", "table45"),
+         "accuracy_cheapest": ("Cheapest setting that reaches each error", "accuracy-tolerance"),
+         "accuracy_room3_storage": ("room3.xml: form factors in dense and CSR storage", "accuracy-threshold"),
+         "extremes": ("Extremes", "extremes"), "mpi_radiosity": ("Radiosity across MPI ranks", "mpi-radiosity"),
+         "relight": ("Relighting", "relight"), "bench_relight": ("Product with k right-hand sides", "bench-relight"),
+         "bench": ("make bench", "bench-stream")}
+
+
 def include(name, preset):
     f = tables_dir() / f"{name}_{preset}.md"
-    return f.read_text() if f.exists() else f"### {name}\n\nNo records used for this preset ({NONE_USED}).\n"
+    if f.exists():
+        return f.read_text()
+    title, experiment = EMPTY.get(name, (name, None))
+    planned = f"\n{settings.planned(experiment, preset)}" if experiment else ""
+    return f"### {md(title)} ({md(preset)})\n\nNo records used for this preset ({NONE_USED}).{planned}\n"
 
 
 def image(name, preset, alt):
