@@ -233,10 +233,13 @@ def time_cell(r):
 
 
 def sweeps_table(preset, df):
-    cols = ["scene", "experiment", "setting", "iterations", "status", "time_s", "measured_s", "error"]
-    t = df[cols].rename(columns={"experiment": "sweep", "time_s": "time (s)", "measured_s": "measured (s)"})
+    cols = ["scene", "experiment", "setting", "iterations", "status", "time_s", "measured_s", "repeats", "error"]
+    t = df[cols].rename(columns={"experiment": "sweep", "time_s": "time (s)", "measured_s": "measured (s)",
+                                 "repeats": "its runs"})
+    t["time (s)"] = [time_cell(r) for _, r in df.iterrows()]
     return write("accuracy_sweeps", preset, f"Every setting of the speed-against-accuracy sweeps ({preset})", t,
-                 [TIME_NOTE])
+                 [TIME_NOTE + " time (s): median [95% interval] n, the interval and n those of its configuration's "
+                  "runs; measured: the median of the setting's own runs (its runs: their count).", df.attrs.get("settings", "")])
 
 
 def room3_storage(preset):
