@@ -142,12 +142,15 @@ def test_no_source_file_over_400_lines_and_no_function_over_80():
     assert not bad, "split by meaning: " + "; ".join(bad)
 
 
-def _long_body(k, n):
-    """The body lines of a function of n lines in all (header and closing line included) of kind k."""
+def _long_body(name, k, n):
+    """The lines of a function of n lines in all (header and closing line included) for file `name` of kind k: a
+    CUDA kernel in a .cu or .cuh file."""
     if k == "python":
         return ["def planted():"] + ["    x = 1"] * (n - 2) + ["    return x"]
     if k == "shell":
         return ["planted() {"] + ["  echo x"] * (n - 2) + ["}"]
+    if name.endswith((".cu", ".cuh")):
+        return ["__global__ void planted(float* x) {"] + ["  x[threadIdx.x] += 1.0f;"] * (n - 2) + ["}"]
     return ["int planted() {"] + ["  int x = 1; (void)x;"] * (n - 2) + ["}"]
 
 
@@ -165,9 +168,9 @@ def test_a_planted_long_function_or_file_fails(tmp_path):
     assert not offenders(tmp_path, samples)
     for name, k in samples.items():
         text = (ROOT / name).read_text()
-        (tmp_path / name).write_text(text + "\n" + "\n".join(_long_body(k, MAX_FUNCTION_LINES)) + "\n")
+        (tmp_path / name).write_text(text + "\n" + "\n".join(_long_body(name, k, MAX_FUNCTION_LINES)) + "\n")
         assert not offenders(tmp_path, {name: k}), name
-        (tmp_path / name).write_text(text + "\n" + "\n".join(_long_body(k, MAX_FUNCTION_LINES + 1)) + "\n")
+        (tmp_path / name).write_text(text + "\n" + "\n".join(_long_body(name, k, MAX_FUNCTION_LINES + 1)) + "\n")
         bad = offenders(tmp_path, {name: k})
         assert len(bad) == 1 and "planted" in bad[0] and f"({MAX_FUNCTION_LINES + 1} lines)" in bad[0], (name, bad)
     long_file = tmp_path / "long.hpp"
