@@ -50,26 +50,10 @@ def parse(argv):
     return ap.parse_args(argv)
 
 
-def main(argv):
-    a = parse(argv)
-    try:
-        import numpy as np
-        from petsc4py import PETSc
-    except ImportError as e:
-        print(f"petsc_poisson: petsc4py is not installed ({e}); make deps installs python3-petsc4py", file=sys.stderr)
-        return 2
-    comm = PETSc.COMM_WORLD
-    rank, size = comm.getRank(), comm.getSize()
-    if a.pc == "hypre" and not PETSc.Sys.hasExternalPackage("hypre"):
-        if rank == 0:
-            print("petsc_poisson: this PETSc was built without hypre", file=sys.stderr)
-        return 2
-    n = a.n
-    max_iter = a.max_iter or max(1000, 4 * n)
+def assemble(np, PETSc, comm, n):
+    """The h²-scaled 5-point matrix A on a 2-D DMDA of 1 x P processes, b = h² f and the exact solution u."""
     h = 1.0 / (n + 1)
-
-    t = time.perf_counter()
-    da = PETSc.DMDA().create(dim=2, sizes=(n, n), proc_sizes=(1, size), stencil_width=1,
+    da = PETSc.DMDA().create(dim=2, sizes=(n, n), proc_sizes=(1, comm.getSize()), stencil_width=1,
                              stencil_type=PETSc.DMDA.StencilType.STAR, comm=comm)
     da.setUp()
     (xs, xe), (ys, ye) = da.getRanges()
@@ -101,9 +85,11 @@ def main(argv):
     b.setArray(h * h * f)
     u = b.duplicate()
     u.setArray((sx * sy) ** 2)
-    x = b.duplicate()
-    x.set(0.0)
+    return A, b, u
 
+
+def make_ksp(PETSc, comm, A, a, max_iter):
+    """KSPCG on A with the unpreconditioned norm, rtol = --tol, atol = 0, x₀ = 0 and the preconditioner --pc."""
     ksp = PETSc.KSP().create(comm=comm)
     ksp.setOperators(A)
     ksp.setType(PETSc.KSP.Type.CG)
@@ -111,6 +97,27 @@ def main(argv):
     ksp.setTolerances(rtol=a.tol, atol=0.0, max_it=max_iter)
     ksp.setInitialGuessNonzero(False)
     ksp.getPC().setType(PCS[a.pc])
+    return ksp
+
+
+def check(PETSc, A, b, u, x):
+    """The true relative residual ‖b − Ax‖/‖b‖, recomputed, and the error ‖u − x‖∞ (x is overwritten)."""
+    r = b.duplicate()
+    A.mult(x, r)
+    r.aypx(-1.0, b)
+    bn = b.norm()
+    true_rel = r.norm() / bn if bn > 0 else 0.0
+    x.axpy(-1.0, u)
+    return true_rel, x.norm(PETSc.NormType.INFINITY)
+
+
+def solve(np, PETSc, comm, a, n, max_iter):
+    """Assembles, sets up and solves; returns the result's fields and the times (setup, pc_setup, solve)."""
+    t = time.perf_counter()
+    A, b, u = assemble(np, PETSc, comm, n)
+    x = b.duplicate()
+    x.set(0.0)
+    ksp = make_ksp(PETSc, comm, A, a, max_iter)
     setup_s = time.perf_counter() - t
     t = time.perf_counter()
     ksp.setUp()
@@ -120,16 +127,42 @@ def main(argv):
     ksp.solve(b, x)
     comm.barrier()
     solve_s = time.perf_counter() - t
+    true_rel, err = check(PETSc, A, b, u, x)
+    return ksp.getIterationNumber(), ksp.getConvergedReason(), true_rel, err, (setup_s, pc_setup_s, solve_s)
 
-    its = ksp.getIterationNumber()
-    reason = ksp.getConvergedReason()
-    r = b.duplicate()
-    A.mult(x, r)
-    r.aypx(-1.0, b)
-    bn = b.norm()
-    true_rel = r.norm() / bn if bn > 0 else 0.0
-    x.axpy(-1.0, u)
-    err = x.norm(PETSc.NormType.INFINITY)
+
+def report(a, rec, exit_status, why):
+    """Prints the summary (unless --quiet), writes the record, and names a run that is no answer on stderr."""
+    p, r, ts = rec["params"], rec["result"], rec["times_s"]
+    if not a.quiet:
+        print(f"petsc_poisson: N={p['n']} {NAMES[a.pc]} ranks={p['ranks']}\n  status {r['status']} after "
+              f"{r['iterations']} iterations: true relative residual {r['true_rel_residual']:.3e}, ||u - u_h||_inf = "
+              f"{r['error_inf']:.4e}\n  time: setup {ts['setup']:.3f} s, pc setup {ts['pc_setup']:.3f} s, solve "
+              f"{ts['solve']:.3f} s ({1e3 * ts['per_iteration']:.4g} ms/iteration)")
+    record.set_outcome(rec, exit_status, why)
+    record.emit(rec, a)
+    if exit_status != record.EXIT_OK:
+        print(f"petsc_poisson: {why}", file=sys.stderr)
+
+
+def main(argv):
+    a = parse(argv)
+    try:
+        import numpy as np
+        from petsc4py import PETSc
+    except ImportError as e:
+        print(f"petsc_poisson: petsc4py is not installed ({e}); make deps installs python3-petsc4py", file=sys.stderr)
+        return 2
+    comm = PETSc.COMM_WORLD
+    rank, size = comm.getRank(), comm.getSize()
+    if a.pc == "hypre" and not PETSc.Sys.hasExternalPackage("hypre"):
+        if rank == 0:
+            print("petsc_poisson: this PETSc was built without hypre", file=sys.stderr)
+        return 2
+    n = a.n
+    max_iter = a.max_iter or max(1000, 4 * n)
+    h = 1.0 / (n + 1)
+    its, reason, true_rel, err, (setup_s, pc_setup_s, solve_s) = solve(np, PETSc, comm, a, n, max_iter)
     status = "converged" if reason > 0 else "max_iter" if reason == -3 else "breakdown"
     # every rank ends with the run's exit status (common/errors.hpp); rank 0 alone writes the record
     exit_status = record.EXIT_OK if reason > 0 else record.EXIT_NOT_CONVERGED if reason == -3 else \
@@ -149,15 +182,7 @@ def main(argv):
                       "per_iteration": solve_s / its if its else 0.0}
     rec["perf"] = {"timer": "host wall clock (time.perf_counter) around ksp.solve, barriers before and after"}
     rec["backend_info"] = {"ranks": str(size), "threads": "1", "solver": NAMES[a.pc]}
-    if not a.quiet:
-        print(f"petsc_poisson: N={n} {NAMES[a.pc]} ranks={size}\n  status {status} after {its} iterations: true "
-              f"relative residual {true_rel:.3e}, ||u - u_h||_inf = {err:.4e}\n  time: setup {setup_s:.3f} s, "
-              f"pc setup {pc_setup_s:.3f} s, solve {solve_s:.3f} s ({1e3 * rec['times_s']['per_iteration']:.4g} "
-              f"ms/iteration)")
-    record.set_outcome(rec, exit_status, why)
-    record.emit(rec, a)
-    if exit_status != record.EXIT_OK:
-        print(f"petsc_poisson: {why}", file=sys.stderr)
+    report(a, rec, exit_status, why)
     return exit_status
 
 

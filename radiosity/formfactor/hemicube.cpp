@@ -13,9 +13,13 @@
 #include <utility>
 
 #include "common/errors.hpp"
+#include "radiosity/formfactor/hemicube_raster.hpp"
+#include "radiosity/formfactor/hemicube_weights.hpp"
 
 namespace radiosity {
 namespace {
+
+using namespace hemicube;
 
 // RRV's gluPerspective(90, 1, 1e-3, 50).
 constexpr double kRrvNear = 1e-3;
@@ -23,12 +27,6 @@ constexpr double kRrvFar = 50;
 // With exact weights nothing should be lost to the near plane: a plane this close to the centroid (relative to the
 // patch's size) cuts away only geometry that pierces the patch itself. The far plane is dropped.
 constexpr double kExactNearPerSize = 1e-6;
-// Vertices snap to 1/256 pixel, like OpenGL hardware with 8 sub-pixel bits; edge functions are then exact integers,
-// so the top-left rule gives every pixel centre on a shared edge to exactly one of the two triangles.
-constexpr int64_t kSub = 256;
-// Triangles are clipped to a guard band twice the face's field of view (|x|, |y| <= 2d) as well as to the near
-// plane, which bounds the fixed-point coordinates; clipping outside the face changes no pixel inside it.
-constexpr double kGuard = 2.0;
 // hemicube_row_work's cost model, in nanoseconds on one core: transforming a patch into the row's frame; clipping
 // and rasterising a patch in front of the row's patch (more pixels to fill at a finer hemicube: a + b·R); clearing
 // and gathering one pixel. Fitted to single rows timed on this project's 2-core development machine (scene1, scene2
@@ -37,72 +35,6 @@ constexpr double kGuard = 2.0;
 constexpr double kWorkPerPatchNs = 25;
 constexpr double kWorkPerFrontPatchNs = 50, kWorkPerFrontPatchPerRNs = 0.5;
 constexpr double kWorkPerPixelNs = 1.5;
-// Pixels a row's span is filled in at a time (8 floats: one AVX2 vector).
-constexpr int kLanes = 8;
-
-// The five views. In the patch's frame (u, v, n) a point has local coordinates (lu, lv, ln); a view sees it at view
-// coordinates (x, y, d): image point (x/d, y/d), depth d along the view direction. On the side views y is the height
-// ln, so the hemicube's half of a side face is 0 <= y/d <= 1.
-enum Face { kTop, kPlusU, kMinusU, kPlusV, kMinusV, kFaceCount };
-
-struct ViewVertex {
-  double x, y, d;
-};
-
-template <int F>
-inline ViewVertex to_view(double lu, double lv, double ln) {
-  if constexpr (F == kTop) return {lu, lv, ln};
-  if constexpr (F == kPlusU) return {lv, ln, lu};
-  if constexpr (F == kMinusU) return {lv, ln, -lu};
-  if constexpr (F == kPlusV) return {lu, ln, lv};
-  return {lu, ln, -lv};
-}
-
-// Pixel weights per face, row-major, width R, height R (top) or R/2 (sides); row 0 is y/d = -1 on the top face and
-// the horizon on a side face. The rrv2007 table follows RRV's unfolded cross (FormFactorEngine::renderFullScene and
-// getFF): its pixel (X, Y) of the 2R × 2R cross has weight cos(π(X-R)/2R)·cos(π(Y-R)/2R), X and Y counted from the
-// cross's corner (so the cosines are taken at pixel corners, as RRV does). Mapped to our faces: the along-axis
-// pixel a sits at a - R/2 on every face; the height row r sits at R-1-r on the +u, +v faces and r-R on the -u, -v
-// faces (RRV renders those views upside down or mirrored), and at r - R/2 on the top.
-// Stored as prefix sums along each pixel row (R + 1 entries per row, the first 0), so that a run of pixels showing
-// the same patch costs one subtraction when the face is gathered.
-struct WeightTable {
-  std::array<std::vector<double>, kFaceCount> prefix;
-};
-
-WeightTable make_weights(const HemicubeParams& p) {
-  const int R = p.resolution;
-  WeightTable t;
-  for (int f = 0; f < kFaceCount; ++f) {
-    const int height = f == kTop ? R : R / 2;
-    t.prefix[f].assign(size_t(R + 1) * height, 0.0);
-    for (int r = 0; r < height; ++r)
-      for (int a = 0; a < R; ++a) {
-        double w;
-        if (p.weights == HemicubeWeights::exact) {
-          const double dA = 4.0 / (double(R) * R), x = (a + 0.5) * 2.0 / R - 1.0;
-          if (f == kTop) {
-            const double y = (r + 0.5) * 2.0 / R - 1.0, q = x * x + y * y + 1.0;
-            w = dA / (M_PI * q * q);
-          } else {
-            const double z = (r + 0.5) * 2.0 / R, q = x * x + z * z + 1.0;
-            w = z * dA / (M_PI * q * q);
-          }
-        } else {
-          auto c = [R](int k) { return std::cos(M_PI * k / (2.0 * R)); };
-          const int h = f == kTop ? r - R / 2 : (f == kPlusU || f == kPlusV) ? R - 1 - r : r - R;
-          w = c(a - R / 2) * c(h) * 2.0 / (3.0 * double(R) * R);
-        }
-        double* pre = &t.prefix[f][size_t(r) * (R + 1)];
-        pre[a + 1] = pre[a] + w;
-      }
-  }
-  return t;
-}
-
-inline int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
-inline int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
-
 // Which face of the hemicube sees the point at local coordinates (lu, lv, ln): the one across which the largest of
 // ln, |lu|, |lv| lies. -1 when no face does, or only in front of its near plane or past its far plane.
 inline int face_of(double lu, double lv, double ln, double near, double far) {
@@ -123,7 +55,8 @@ inline int face_of(double lu, double lv, double ln, double near, double far) {
   return d >= near && d <= far ? face : -1;
 }
 
-// Renders the rows of F for one thread: buffers allocated once, reused for every patch and face.
+// Renders the rows of F for one thread: buffers allocated once, reused for every patch and face. Each patch above
+// the row's plane is drawn into each face that may see it (hemicube_raster.hpp), and the face gathered by its weights.
 class RowRenderer {
  public:
   // corners: the 9 coordinates of each patch's 3 vertices, packed.
@@ -135,8 +68,7 @@ class RowRenderer {
         rrv_(p.weights == HemicubeWeights::rrv2007),
         weights_(weights),
         local_(corners.size()),
-        item_(size_t(R_) * R_ + kLanes, -1),
-        depth_(size_t(R_) * R_ + kLanes, 0.0f) {
+        raster_(R_) {
     for (auto& list : within_) list.reserve(mesh.size());
     straddling_.reserve(mesh.size());
   }
@@ -188,8 +120,7 @@ class RowRenderer {
  private:
   template <int F>
   void render_face(double* row) {
-    face_ = F;
-    height_ = F == kTop ? R_ : R_ / 2;
+    raster_.begin(F, near_, far_);
     auto view = [this](int32_t j) {
       const double* l = &local_[9 * size_t(j)];
       return std::array<ViewVertex, 3>{to_view<F>(l[0], l[1], l[2]), to_view<F>(l[3], l[4], l[5]),
@@ -197,17 +128,16 @@ class RowRenderer {
     };
     for (int32_t j : within_[F]) {
       const std::array<ViewVertex, 3> t = view(j);
-      project(t.data(), 3, j);
+      raster_.project(t.data(), 3, j);
     }
     for (int32_t j : straddling_) {
       const std::array<ViewVertex, 3> t = view(j);
-      draw(t.data(), j);
+      raster_.draw(t.data(), j);
     }
-    // Gather: each run of pixels showing one patch adds its summed weight to that patch; the buffers are left
-    // clean for the next face.
+    // Gather: each run of pixels showing one patch adds its summed weight to that patch.
     const double* prefix = weights_.prefix[F].data();
-    for (int r = 0; r < height_; ++r) {
-      const int32_t* it = &item_[size_t(r) * R_];
+    for (int r = 0; r < raster_.height(); ++r) {
+      const int32_t* it = raster_.items(r);
       const double* pre = &prefix[size_t(r) * (R_ + 1)];
       for (int a = 0; a < R_;) {
         const int32_t shown = it[a];
@@ -217,167 +147,7 @@ class RowRenderer {
         a = b;
       }
     }
-    std::fill_n(item_.begin(), size_t(R_) * height_, -1);
-    std::fill_n(depth_.begin(), size_t(R_) * height_, 0.0f);
-  }
-
-  // Rejects triangles wholly outside the face's frustum, clips the rest to the near (and far) plane and the guard
-  // band, and rasterises the resulting convex polygon as a fan.
-  void draw(const ViewVertex* t, int32_t item) {
-    const double ymin = face_ == kTop ? -1.0 : 0.0;
-    auto all = [&t](auto outside) { return outside(t[0]) && outside(t[1]) && outside(t[2]); };
-    if (all([](const ViewVertex& p) { return p.x > p.d; }) || all([](const ViewVertex& p) { return p.x < -p.d; }) ||
-        all([](const ViewVertex& p) { return p.y > p.d; }) ||
-        all([ymin](const ViewVertex& p) { return p.y < ymin * p.d; }) ||
-        all([this](const ViewVertex& p) { return p.d < near_; }) ||
-        all([this](const ViewVertex& p) { return p.d > far_; }))
-      return;
-
-    auto inside_all = [this](const ViewVertex& p) {
-      return p.d >= near_ && p.d <= far_ && std::abs(p.x) <= kGuard * p.d && std::abs(p.y) <= kGuard * p.d;
-    };
-    ViewVertex poly[2][12];
-    int count = 3;
-    std::copy(t, t + 3, poly[0]);
-    int cur = 0;
-    if (!(inside_all(t[0]) && inside_all(t[1]) && inside_all(t[2]))) {
-      // Sutherland-Hodgman against the planes a·x + b·y + c·d + e >= 0; near first, so that the guard planes
-      // only ever meet points in front of the eye.
-      const double planes[6][4] = {{0, 0, 1, -near_},   {0, 0, -1, far_},  {-1, 0, kGuard, 0},
-                                   {1, 0, kGuard, 0},   {0, -1, kGuard, 0}, {0, 1, kGuard, 0}};
-      for (const auto& pl : planes) {
-        if (std::isinf(pl[3])) continue;  // no far plane
-        auto dist = [&pl](const ViewVertex& p) { return pl[0] * p.x + pl[1] * p.y + pl[2] * p.d + pl[3]; };
-        const ViewVertex* in = poly[cur];
-        ViewVertex* out = poly[1 - cur];
-        int m = 0;
-        for (int k = 0; k < count; ++k) {
-          const ViewVertex& a = in[k];
-          const ViewVertex& b = in[(k + 1) % count];
-          const double da = dist(a), db = dist(b);
-          if (da >= 0) out[m++] = a;
-          if ((da >= 0) != (db >= 0)) {
-            const double s = da / (da - db);
-            out[m++] = {a.x + s * (b.x - a.x), a.y + s * (b.y - a.y), a.d + s * (b.d - a.d)};
-          }
-        }
-        count = m;
-        cur = 1 - cur;
-        if (count < 3) return;
-      }
-    }
-    project(poly[cur], count, item);
-  }
-
-  // Projects a convex polygon in front of the eye to fixed-point pixel coordinates, keeping 1/d as the depth (it
-  // is affine in screen space), and rasterises it as a fan.
-  void project(const ViewVertex* poly, int count, int32_t item) {
-    const double half = 0.5 * R_, yoff = face_ == kTop ? 1.0 : 0.0;
-    Fixed s[12];
-    for (int k = 0; k < count; ++k) {
-      const ViewVertex& p = poly[k];
-      const double inv = 1.0 / p.d;
-      s[k] = {static_cast<int64_t>(std::floor((p.x * inv + 1.0) * half * kSub + 0.5)),
-              static_cast<int64_t>(std::floor((p.y * inv + yoff) * half * kSub + 0.5)), inv};
-    }
-    for (int k = 1; k + 1 < count; ++k) raster(s[0], s[k], s[k + 1], item);
-  }
-
-  struct Fixed {
-    int64_t x, y;  // pixel coordinates × kSub
-    double z;      // 1/d
-  };
-
-  // Rasterises a triangle within its bounding box, sampling pixel centres with incremental integer edge functions.
-  // Ties follow the top-left rule: a centre exactly on an edge shared by two triangles goes to exactly one of them,
-  // so meshes have neither cracks nor double-counted pixels.
-  void raster(Fixed a, Fixed b, Fixed c, int32_t item) {
-    int64_t area2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (area2 == 0) return;
-    if (area2 < 0) {  // no culling: both windings are drawn, turned counter-clockwise here
-      std::swap(b, c);
-      area2 = -area2;
-    }
-    const Fixed v[3] = {a, b, c};
-    const int64_t half = kSub / 2;
-    const int64_t x0 = std::max<int64_t>(0, ceil_div(std::min({a.x, b.x, c.x}) - half, kSub));
-    const int64_t x1 = std::min<int64_t>(R_ - 1, floor_div(std::max({a.x, b.x, c.x}) - half, kSub));
-    const int64_t y0 = std::max<int64_t>(0, ceil_div(std::min({a.y, b.y, c.y}) - half, kSub));
-    const int64_t y1 = std::min<int64_t>(height_ - 1, floor_div(std::max({a.y, b.y, c.y}) - half, kSub));
-    if (x0 > x1 || y0 > y1) return;
-
-    // Edge k runs from v[k+1] to v[k+2] and is the barycentric weight of v[k]: E_k(p) = A_k p.x + B_k p.y + C_k > 0
-    // inside. A pixel centre on an edge belongs to the triangle only if the edge is a top or left one.
-    const int64_t px = x0 * kSub + half, py = y0 * kSub + half;
-    int64_t e_row[3], step_x[3], step_y[3];
-    double z_row = 0, dz_dx = 0, dz_dy = 0;
-    for (int k = 0; k < 3; ++k) {
-      const Fixed& p = v[(k + 1) % 3];
-      const Fixed& q = v[(k + 2) % 3];
-      const int64_t A = -(q.y - p.y), B = q.x - p.x;
-      const int64_t e = A * (px - p.x) + B * (py - p.y);
-      const bool top_left = (q.y - p.y) < 0 || ((q.y == p.y) && (q.x - p.x) < 0);
-      e_row[k] = e - (top_left ? 0 : 1);
-      step_x[k] = A * kSub;
-      step_y[k] = B * kSub;
-      z_row += double(e) * v[k].z;
-      dz_dx += double(A * kSub) * v[k].z;
-      dz_dy += double(B * kSub) * v[k].z;
-    }
-    const double inv_area = 1.0 / double(area2);
-    z_row *= inv_area;
-    dz_dx *= inv_area;
-    dz_dy *= inv_area;
-
-    // A triangle covers one interval of each pixel row; its ends follow exactly from the integer edge functions:
-    // E_k + s_k·d >= 0 for the pixel d = x - x0 of the row, s_k the step per pixel, holds from d = ceil(-E_k/s_k)
-    // on when s_k > 0 and up to d = floor(E_k/|s_k|) when s_k < 0 (an edge with s_k = 0 keeps the whole row or
-    // none). So only covered pixels are visited. Rows are short (about 5 pixels on average for room3.xml at
-    // R = 256), so the ends are kept without a division per row: q_k = floor(E_k/u_k) with u_k = |s_k| (1 when
-    // s_k = 0: then q_k = E_k) and its remainder r_k in [0, u_k), stepped by the quotient and remainder of the
-    // per-row step t_k as Bresenham's line does: exact, the same intervals as dividing.
-    int64_t u[3], q[3], r[3], dq[3], dr[3];
-    for (int k = 0; k < 3; ++k) {
-      u[k] = step_x[k] > 0 ? step_x[k] : step_x[k] < 0 ? -step_x[k] : 1;
-      q[k] = floor_div(e_row[k], u[k]);
-      r[k] = e_row[k] - q[k] * u[k];
-      dq[k] = floor_div(step_y[k], u[k]);
-      dr[k] = step_y[k] - dq[k] * u[k];
-    }
-    // The depth is evaluated afresh at each pixel rather than stepped, which would chain every pixel on the latency
-    // of a floating-point add.
-    for (int64_t y = y0; y <= y1; ++y) {
-      int64_t lo = x0, hi = x1;
-      for (int k = 0; k < 3; ++k) {
-        if (step_x[k] > 0) lo = std::max(lo, x0 - q[k]);
-        else if (step_x[k] < 0) hi = std::min(hi, x0 + q[k]);
-        else if (q[k] < 0) hi = lo - 1;
-        q[k] += dq[k];
-        r[k] += dr[k];
-        const int64_t carry = r[k] >= u[k];
-        q[k] += carry;
-        r[k] -= carry * u[k];
-      }
-      int32_t* it = &item_[size_t(y) * R_];
-      float* dp = &depth_[size_t(y) * R_];
-      // The interval in blocks of kLanes pixels, every lane computed and stored, the lanes past the interval's end
-      // storing back what they read (the buffers have kLanes pixels of slack at the end): a row is about 5 pixels,
-      // so a loop with a vector body and a scalar tail would run mostly in its tail. Branch-free (select, then
-      // store; `&`, not `&&`, which is a branch) and with 32-bit offsets (AVX2 converts int32 to double in vectors,
-      // not int64), so that the lanes become vector instructions.
-      const int first = int(lo - x0), last = int(hi - x0);
-      dp += x0;
-      it += x0;
-      for (int x = first; x <= last; x += kLanes)
-#pragma omp simd
-        for (int l = 0; l < kLanes; ++l) {
-          const float z = static_cast<float>(z_row + dz_dx * double(x + l)), old = dp[x + l];
-          const bool nearer = (x + l <= last) & (z > old);  // larger 1/d is nearer
-          dp[x + l] = nearer ? z : old;
-          it[x + l] = nearer ? item : it[x + l];
-        }
-      z_row += dz_dy;
-    }
+    raster_.clear();
   }
 
   const Mesh& mesh_;
@@ -388,10 +158,8 @@ class RowRenderer {
   std::vector<double> local_;  // 9 per patch: (lu, lv, ln) of its three vertices, for the current row
   std::array<std::vector<int32_t>, kFaceCount> within_;  // patches wholly inside one face's frustum
   std::vector<int32_t> straddling_;                     // the other patches above the current patch's plane
-  std::vector<int32_t> item_;          // which patch each pixel of the current face shows, -1 none
-  std::vector<float> depth_;           // 1/d of that patch there, 0 none
+  FaceRaster raster_;
   double near_ = kRrvNear, far_ = kRrvFar;
-  int face_ = kTop, height_ = 0;
 };
 
 }  // namespace
@@ -401,16 +169,6 @@ HemicubeProgress stderr_progress() {
     std::fprintf(stderr, "form factors: %zu/%zu patches, %.1f s, %.1f patches/s\n", done, total, seconds,
                  seconds > 0 ? done / seconds : 0.0);
   };
-}
-
-double hemicube_weight_total(const HemicubeParams& params) {
-  validate(params);
-  const WeightTable t = make_weights(params);
-  const size_t stride = size_t(params.resolution) + 1;
-  double sum = 0;
-  for (const auto& face : t.prefix)
-    for (size_t end = stride - 1; end < face.size(); end += stride) sum += face[end];
-  return sum;
 }
 
 FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,

@@ -91,10 +91,9 @@ std::uint8_t tone(double b, const RenderOptions& opt) {
   return static_cast<std::uint8_t>(std::lround(255 * std::pow(v, 1 / opt.gamma)));
 }
 
-}  // namespace
-
-Image render(const Mesh& m, const std::vector<Rgb>& radiosity, const Camera& cam, int width, int height,
-             const RenderOptions& opt) {
+// Refuses what render() cannot draw: one line naming the argument.
+void check_render_args(const Mesh& m, const std::vector<Rgb>& radiosity, int width, int height,
+                       const RenderOptions& opt) {
   if (radiosity.size() != m.size())
     throw hpcgi::UsageError("render: " + std::to_string(radiosity.size()) + " radiosity values for " +
                             std::to_string(m.size()) + " patches");
@@ -103,16 +102,38 @@ Image render(const Mesh& m, const std::vector<Rgb>& radiosity, const Camera& cam
                             " is not in 1..16384 per side");
   if (!(opt.exposure >= 0) || !std::isfinite(opt.exposure)) throw hpcgi::UsageError("render: exposure must be >= 0");
   if (!(opt.gamma > 0) || !std::isfinite(opt.gamma)) throw hpcgi::UsageError("render: gamma must be > 0");
-  const Basis basis = camera_basis(cam);
+}
 
-  std::vector<std::array<Rgb, 3>> corner;
-  if (opt.flat) {
-    corner.resize(m.size());
-    for (size_t i = 0; i < m.size(); ++i) corner[i] = {radiosity[i], radiosity[i], radiosity[i]};
-  } else {
-    corner = smooth_vertex_colours(m, radiosity, opt.crease_deg);
+// The linear radiosity at each patch's three corners: its own (flat) or smoothed over its neighbours.
+std::vector<std::array<Rgb, 3>> corner_colours(const Mesh& m, const std::vector<Rgb>& radiosity,
+                                               const RenderOptions& opt) {
+  if (!opt.flat) return smooth_vertex_colours(m, radiosity, opt.crease_deg);
+  std::vector<std::array<Rgb, 3>> corner(m.size());
+  for (size_t i = 0; i < m.size(); ++i) corner[i] = {radiosity[i], radiosity[i], radiosity[i]};
+  return corner;
+}
+
+// The screen triangles of one clipped polygon (a fan), those that cover a pixel centre of the picture.
+void add_fan(const ScreenVertex* s, int n, int width, int height, std::vector<ScreenTriangle>& tris) {
+  for (int k = 1; k + 1 < n; ++k) {
+    ScreenTriangle t{{s[0], s[k], s[k + 1]}, 0, 0, 0, 0, 0};
+    const double area2 = edge(t.v[0], t.v[1], t.v[2].x, t.v[2].y);
+    if (!(std::abs(area2) > 0) || !std::isfinite(area2)) continue;  // edge-on or degenerate: covers no pixel
+    t.inv_area2 = 1 / area2;
+    const double lo_x = std::min({t.v[0].x, t.v[1].x, t.v[2].x}), hi_x = std::max({t.v[0].x, t.v[1].x, t.v[2].x});
+    const double lo_y = std::min({t.v[0].y, t.v[1].y, t.v[2].y}), hi_y = std::max({t.v[0].y, t.v[1].y, t.v[2].y});
+    // Pixel (x, y) is sampled at its centre (x + 0.5, y + 0.5).
+    t.x0 = static_cast<int>(std::max(0.0, std::ceil(lo_x - 0.5)));
+    t.x1 = static_cast<int>(std::min(width - 1.0, std::floor(hi_x - 0.5)));
+    t.y0 = static_cast<int>(std::max(0.0, std::ceil(lo_y - 0.5)));
+    t.y1 = static_cast<int>(std::min(height - 1.0, std::floor(hi_y - 0.5)));
+    if (t.x0 <= t.x1 && t.y0 <= t.y1) tris.push_back(t);
   }
+}
 
+// Every patch in camera space, clipped to the near plane and projected to the picture, in mesh order.
+std::vector<ScreenTriangle> project_mesh(const Mesh& m, const std::vector<std::array<Rgb, 3>>& corner,
+                                         const Camera& cam, const Basis& basis, int width, int height) {
   // The near plane is set by the scene's reach from the eye: far enough that projected coordinates stay within
   // 1e4 focal lengths of the centre, where the edge tests keep their precision; near enough that it cuts only what
   // is 1e4 times closer than the farthest vertex.
@@ -138,21 +159,39 @@ Image render(const Mesh& m, const std::vector<Rgb>& radiosity, const Camera& cam
       s[k] = {0.5 * width + focal * v.p.x * w, 0.5 * height - focal * v.p.y * w, w,
               {v.c[0] * w, v.c[1] * w, v.c[2] * w}};
     }
-    for (int k = 1; k + 1 < n; ++k) {  // a fan over the clipped polygon
-      ScreenTriangle t{{s[0], s[k], s[k + 1]}, 0, 0, 0, 0, 0};
-      const double area2 = edge(t.v[0], t.v[1], t.v[2].x, t.v[2].y);
-      if (!(std::abs(area2) > 0) || !std::isfinite(area2)) continue;  // edge-on or degenerate: covers no pixel
-      t.inv_area2 = 1 / area2;
-      const double lo_x = std::min({t.v[0].x, t.v[1].x, t.v[2].x}), hi_x = std::max({t.v[0].x, t.v[1].x, t.v[2].x});
-      const double lo_y = std::min({t.v[0].y, t.v[1].y, t.v[2].y}), hi_y = std::max({t.v[0].y, t.v[1].y, t.v[2].y});
-      // Pixel (x, y) is sampled at its centre (x + 0.5, y + 0.5).
-      t.x0 = static_cast<int>(std::max(0.0, std::ceil(lo_x - 0.5)));
-      t.x1 = static_cast<int>(std::min(width - 1.0, std::floor(hi_x - 0.5)));
-      t.y0 = static_cast<int>(std::max(0.0, std::ceil(lo_y - 0.5)));
-      t.y1 = static_cast<int>(std::min(height - 1.0, std::floor(hi_y - 0.5)));
-      if (t.x0 <= t.x1 && t.y0 <= t.y1) tris.push_back(t);
+    add_fan(s, n, width, height, tris);
+  }
+  return tris;
+}
+
+// Draws triangle t into rows [b0, b1] of the depth (w = 1/z of the nearest so far; 0 = nothing) and colour buffers.
+void draw_rows(const ScreenTriangle& t, int b0, int b1, int width, std::vector<double>& depth,
+               std::vector<Rgb>& colour) {
+  for (int y = std::max(t.y0, b0); y <= std::min(t.y1, b1); ++y) {
+    const double py = y + 0.5;
+    for (int x = t.x0; x <= t.x1; ++x) {
+      const double px = x + 0.5;
+      const double l0 = shared_edge(t.v[1], t.v[2], px, py) * t.inv_area2;
+      const double l1 = shared_edge(t.v[2], t.v[0], px, py) * t.inv_area2;
+      const double l2 = shared_edge(t.v[0], t.v[1], px, py) * t.inv_area2;
+      if (l0 < 0 || l1 < 0 || l2 < 0) continue;
+      const double w = l0 * t.v[0].w + l1 * t.v[1].w + l2 * t.v[2].w;
+      const size_t at = static_cast<size_t>(y) * width + x;
+      if (!(w > depth[at])) continue;
+      depth[at] = w;
+      for (int c = 0; c < 3; ++c) colour[at][c] = (l0 * t.v[0].cw[c] + l1 * t.v[1].cw[c] + l2 * t.v[2].cw[c]) / w;
     }
   }
+}
+
+}  // namespace
+
+Image render(const Mesh& m, const std::vector<Rgb>& radiosity, const Camera& cam, int width, int height,
+             const RenderOptions& opt) {
+  check_render_args(m, radiosity, width, height, opt);
+  const Basis basis = camera_basis(cam);
+  const std::vector<ScreenTriangle> tris =
+      project_mesh(m, corner_colours(m, radiosity, opt), cam, basis, width, height);
 
   Image img;
   img.width = width;
@@ -167,24 +206,8 @@ Image render(const Mesh& m, const std::vector<Rgb>& radiosity, const Camera& cam
 #pragma omp parallel for schedule(dynamic)
   for (int b0 = 0; b0 < height; b0 += band) {
     const int b1 = std::min(height, b0 + band) - 1;
-    for (const ScreenTriangle& t : tris) {
-      if (t.y1 < b0 || t.y0 > b1) continue;
-      for (int y = std::max(t.y0, b0); y <= std::min(t.y1, b1); ++y) {
-        const double py = y + 0.5;
-        for (int x = t.x0; x <= t.x1; ++x) {
-          const double px = x + 0.5;
-          const double l0 = shared_edge(t.v[1], t.v[2], px, py) * t.inv_area2;
-          const double l1 = shared_edge(t.v[2], t.v[0], px, py) * t.inv_area2;
-          const double l2 = shared_edge(t.v[0], t.v[1], px, py) * t.inv_area2;
-          if (l0 < 0 || l1 < 0 || l2 < 0) continue;
-          const double w = l0 * t.v[0].w + l1 * t.v[1].w + l2 * t.v[2].w;
-          const size_t at = static_cast<size_t>(y) * width + x;
-          if (!(w > depth[at])) continue;
-          depth[at] = w;
-          for (int c = 0; c < 3; ++c) colour[at][c] = (l0 * t.v[0].cw[c] + l1 * t.v[1].cw[c] + l2 * t.v[2].cw[c]) / w;
-        }
-      }
-    }
+    for (const ScreenTriangle& t : tris)
+      if (t.y1 >= b0 && t.y0 <= b1) draw_rows(t, b0, b1, width, depth, colour);
   }
 
 #pragma omp parallel for schedule(static)

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from conftest import BIN, ROOT, run
-from test_mpi_radiosity import radiosities, rel_diff
+from mpi_files import radiosities, rel_diff
 
 CLUSTER = ROOT / "slurm" / "local-cluster"
 CONF = "/run/hpcgi-cluster/slurm.conf"

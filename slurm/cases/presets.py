@@ -1,0 +1,39 @@
+"""The study's presets and scenes, which every case list of slurm/cases/generate.py is written from."""
+
+# The report's scenes: 1 and 2 are ours (RRV does not ship them), 3 and 4 are RRV's room3.xml and room2.xml.
+SCENES = {
+    1: ("scene1", "radiosity/scenes/scene1.xml", ""),
+    2: ("scene2", "radiosity/scenes/scene2.xml", ""),
+    3: ("room3", "{RRV_SCENES}/room3.xml", " --allow-reflectivity-ge-1"),
+    4: ("room2", "{RRV_SCENES}/room2.xml", ""),
+}
+# Jacobi iterations the report needed per scene (Table 4.2): RRV's original loop has no tolerance, so it runs
+# this many fixed steps to do the same work as the tolerance runs beside it.
+REPORT_JACOBI_ITERS = {1: 8, 2: 28, 3: 36, 4: 32}
+
+PRESETS = {
+    # quick: about ten minutes on 2 cores; scenes 1-3, a coarser hemicube, our exact weights.
+    # Its timing tables (4.1-4.5) run each case 3 times (the paper preset 5) so that the whole preset fits in 15
+    # minutes on 2 cores, set-up and build included (README, "Reproducing on your machine").
+    "quick": dict(scenes=[1, 2, 3], hemicube=128, weights="exact", poisson_n=[256, 512, 1024], ranks=[1, 2],
+                  cores=2, hybrid_scene=3, mg_n=[256, 512, 1024, 2048], timing_repeat=3),
+    # ci: tiny cases for the test that runs the harness under a real single-node Slurm.
+    "ci": dict(scenes=[1], hemicube=16, weights="exact", poisson_n=[16, 32], ranks=[1, 2], cores=1, hybrid_scene=1,
+               mg_n=[16, 32], figure42=dict(divide=8, hemicube=8)),
+    # paper: the report's sizes; RRV's hemicube (R = 256, its cos·cos weights) for a faithful reproduction.
+    "paper": dict(scenes=[1, 2, 3, 4], hemicube=256, weights="rrv2007", poisson_n=[1024, 2048, 4096, 8192],
+                  ranks=[1, 2, 4, 8, 16], cores=16, hybrid_scene=4, mg_n=[1024, 2048, 4096, 8192]),
+}
+
+
+def scene_args(s, preset):
+    name, path, flag = SCENES[s]
+    return f"{path}{flag} --ff {{FF_DIR}}/{preset}-{name}.ff"
+
+
+def figure42_scene(preset, p, ff="--ff"):
+    """Figure 4.2's scene 3 and its form factors: the preset's own, or (ci) a coarse room3 of its own."""
+    if 3 in p["scenes"]:
+        return scene_args(3, preset)
+    return (f"{SCENES[3][1]}{SCENES[3][2]} --divide {p['figure42']['divide']:g} "
+            f"{ff} {{FF_DIR}}/{preset}-room3-figure42.ff")
