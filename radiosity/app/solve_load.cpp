@@ -36,6 +36,7 @@ void read_file_info(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   L.file_info = hpcgi::comm::agreed([&] {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(a.ff, ec)) return FormFactorFileInfo{};
+    L.file_checked = true;
     FormFactorFileInfo info = check_any_form_factor_file(a.ff, L.m);
     if (info.version != 1) plan_sparse_file(a, *p.backend, info);
     return info;
@@ -89,36 +90,50 @@ void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   });
 }
 
-// The file's values as stored: a sparse file's matrix, an MPI rank's block of rows, or every row.
+// A dense file's values (every row, or an MPI rank's block) as the one FormFactorMatrix: dense float32, the values
+// moved, not copied.
+std::unique_ptr<FormFactorMatrix> dense_matrix(FormFactors&& ff) {
+  FormFactorMatrix::Parts parts;
+  parts.n = ff.n;
+  parts.row_begin = ff.first_row();
+  parts.row_end = ff.last_row();
+  parts.f32 = std::move(ff.values);
+  return std::make_unique<FormFactorMatrix>(std::move(parts));
+}
+
+// The file's values as stored, in the one matrix: a sparse file's, an MPI rank's block of rows, or every row. The
+// header read once (read_file_info) is not read again.
 void read_form_factors(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   hpcgi::Timer t;
+  if (!L.file_checked)  // no file: refused here by what it is, as every reader refuses it
+    hpcgi::comm::agreed([&] { check_any_form_factor_file(a.ff, L.m); });
+  L.params = L.file_info.params;
   if (L.sparse_file) {
-    L.ff.n = L.n;
-    L.ff.row_end = L.n;
-    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.m, &L.ff.params));
+    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.file_info));
   } else if (p.dist) {
 #ifdef HAVE_MPI
     dist::FileStats st;
-    L.ff = dist::load_form_factor_rows(a.ff, L.m, L.block, &st);
+    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, L.block, &st));
     L.rank_read_s = st.io_s;
     L.rank_checksum_s = st.checksum_s;
     L.rank_chain_s = st.chain_s;
 #endif
   } else {
-    L.ff = to_rows(load_form_factors(a.ff, L.m));
+    L.matrix = dense_matrix(load_form_factors(a.ff, L.file_info));
   }
   L.ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
-  L.sys = make_system(L.m, L.ff.values.empty() ? &kNoRows : L.ff.values.data());
-  if (L.sparse_file) {
-    L.sys.F = nullptr;
-    L.sys.stored = L.matrix->view();
-  }
+  FFMatrixView view = L.matrix->view();
+  if (!view.data && view.storage == FFStorage::dense) view.data = &kNoRows;
+  L.sys = make_system(L.m, view);
   if (p.dist) {
     L.sys.rows_begin = L.block.begin;
     L.sys.rows_end = L.block.end;
   }
 }
+
+// The file's dense float32 values (this process's rows), or null for a sparse file.
+const float* file_values(const LoadedSolve& L) { return L.sparse_file ? nullptr : dense_float32(L.sys); }
 
 // The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
 // (the threshold dropped some), *bridges (compressed's) and *runs (the runs storage's).
@@ -129,10 +144,10 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
   StorageCounts c;
   c.n = L.n;
   if (!L.sparse_file)
-    c = count_storages(sys.F, L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
+    c = count_storages(file_values(L), L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
                        L.block.begin, L.block.end);
   uint64_t counts[6] = {c.kept, c.bridges, c.rows_needed, c.runs.runs, c.runs.entries,
-                        !L.sparse_file && a.threshold > 0 ? count_kept(sys.F, L.n, sys.reflectivity, 0, L.block.begin,
+                        !L.sparse_file && a.threshold > 0 ? count_kept(file_values(L), L.n, sys.reflectivity, 0, L.block.begin,
                                                                        L.block.end)
                                                           : c.kept};
   hpcgi::comm::sum(counts, 6);
@@ -165,10 +180,9 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
   opt.storage = L.storage;
   opt.values = p.values;
   opt.threshold = a.threshold;
-  L.matrix = std::make_unique<FormFactorMatrix>(L.ff.values.data(), L.n, L.sys.reflectivity, opt);
-  std::vector<float>().swap(L.ff.values);  // the dense values are no longer needed: give their memory back
-  L.sys.F = nullptr;
-  L.sys.stored = L.matrix->view();
+  // The dense values are no longer needed once the run's matrix is built: replacing the one matrix gives them back.
+  L.matrix = std::make_unique<FormFactorMatrix>(file_values(L), L.n, L.sys.reflectivity, opt);
+  L.sys.matrix = L.matrix->view();
 }
 
 #ifdef HAVE_MPI
@@ -177,7 +191,7 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
 std::vector<uint64_t> row_counts(const LoadedSolve& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
   std::vector<uint64_t> counts(2 * n, 0);
-  const float* F = L.ff.values.data();
+  const float* F = file_values(L);
   const auto& rho = L.sys.reflectivity;
 #pragma omp parallel for schedule(dynamic, 64)
   for (size_t i = L.block.begin; i < L.block.end; ++i) {
@@ -226,9 +240,10 @@ void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L
   L.rank_needs = needs(p.ranks);
   const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
   if (block.begin != L.block.begin || block.end != L.block.end) {
-    std::vector<float>().swap(L.ff.values);  // the rows read before: counted, no longer needed
+    L.matrix.reset();  // the rows read before: counted, no longer needed
     dist::FileStats st;
-    L.ff = dist::load_form_factor_rows(a.ff, L.m, block, &st);
+    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, block, &st));
+    L.sys.matrix = L.matrix->view();
     L.rank_read_s += st.io_s;
     L.rank_checksum_s += st.checksum_s;
     L.rank_chain_s += st.chain_s;
@@ -245,15 +260,13 @@ void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   opt.storage = L.storage;
   opt.values = p.values;
   opt.threshold = a.threshold;
-  opt.largest = float(hpcgi::comm::max(double(largest_abs(L.ff.values.data(), L.block.rows() * n))));
+  opt.largest = float(hpcgi::comm::max(double(largest_abs(file_values(L), L.block.rows() * n))));
   if (L.storage != FFStorage::dense) balance_rows_by_cost(a, p, L, opt);
-  L.matrix = hpcgi::comm::agreed([&] {
-    return std::make_unique<FormFactorMatrix>(L.ff.values.data(), n, L.sys.reflectivity, opt, L.block.begin,
+  L.matrix = hpcgi::comm::agreed([&] {  // the rank's dense rows are given back as the one matrix is replaced
+    return std::make_unique<FormFactorMatrix>(file_values(L), n, L.sys.reflectivity, opt, L.block.begin,
                                               L.block.end);
   });
-  std::vector<float>().swap(L.ff.values);
-  L.sys.F = nullptr;
-  L.sys.stored = L.matrix->view();
+  L.sys.matrix = L.matrix->view();
   L.sys.rows_begin = L.block.begin;
   L.sys.rows_end = L.block.end;
   double bytes = L.matrix->bytes();
@@ -279,7 +292,7 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   const double ref_in_build_s = L.have_ref && !had_ref ? L.ref.seconds : 0;
   L.matrix_storage_bytes = 4 * L.n2;  // all ranks together
   if (as_file) {
-    if (dropped) apply_threshold(L.ff.values.data(), L.n, a.threshold, L.block.rows());
+    if (dropped) apply_threshold(L.matrix->dense_float32_values(), L.n, a.threshold, L.block.rows());
   } else if (L.sparse_file) {
     L.matrix_storage_bytes = L.matrix->bytes();
   } else if (p.dist) {

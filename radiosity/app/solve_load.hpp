@@ -1,5 +1,5 @@
 // Phase 2 of `bin/radiosity solve` (solve_cmd.cpp): the load. The scene, its mesh, the form factors of --ff in the
-// one block-of-rows type (FormFactorRows: every row, or an MPI rank's block; a sparse file as its matrix), the
+// one FormFactorMatrix (dense: every row, or an MPI rank's block; a sparse file as stored), the
 // matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. The
 // load asks solve_reference_at (solve_verify.hpp) at the two points where the error reference may be due before
 // the run: before the run's own form factors are read, and before the file's values are thresholded or rounded.
@@ -24,11 +24,14 @@ struct LoadedSolve {
   double load_s = 0, ff_load_s = 0, ff_build_s = 0;
   FormFactorFileInfo file_info;  // version 1: dense (or not yet a file), else sparse
   bool sparse_file = false;
+  bool file_checked = false;     // file_info is the --ff file's header, read once and checked
   dist::RowBlock block;              // this process's rows
   std::vector<RankNeed> rank_needs;  // what each rank holds (the record's mpi section)
   double file_bytes = 0;             // the file's values this process holds
-  FormFactorRows ff;                 // the file's dense values (empty for a sparse file)
-  std::unique_ptr<FormFactorMatrix> matrix;  // the run's matrix when it is not ff itself
+  HemicubeParams params;             // the file's hemicube
+  // The one form-factor matrix: the file's values as read (dense: this process's rows), then the run's (threshold,
+  // storage, precision), which replaces them. sys views it.
+  std::unique_ptr<FormFactorMatrix> matrix;
   System sys;
   FFStorage storage = FFStorage::dense;
   size_t kept = 0, skipped_rows = 0;

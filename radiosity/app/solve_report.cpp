@@ -19,7 +19,7 @@ json or_null(bool given, const json& v) { return given ? v : json(); }
 json params_json(const SolveReport& r) {
   const SolveArgs& a = r.a;
   const SolveConfig& cfg = r.p.cfg;
-  const FormFactorRows& ff = r.L.ff;
+  const HemicubeParams& hemicube = r.L.params;
   const bool hybrid = cfg.backend == "hybrid", fixed = cfg.steps > 0;
   return {{"command", "solve"},
           {"scene", a.scene},
@@ -37,9 +37,9 @@ json params_json(const SolveReport& r) {
           {"history", cfg.history},
           {"max_iter", cfg.max_iter},
           {"threads", r.run.res.threads},
-          {"hemicube", ff.params.resolution},
-          {"weights", to_string(ff.params.weights)},
-          {"ff_threshold", ff.params.threshold},
+          {"hemicube", hemicube.resolution},
+          {"weights", to_string(hemicube.weights)},
+          {"ff_threshold", hemicube.threshold},
           {"ff_file", a.ff},
           {"storage", to_string(r.L.storage)},
           {"storage_requested", a.storage},

@@ -169,6 +169,7 @@ class FormFactorMatrix {
     std::vector<uint16_t> step;
     std::vector<int64_t> run_start;
     std::vector<FFRun> run;
+    size_t row_begin = 0, row_end = SIZE_MAX;  // dense: the rows f32 holds (an MPI rank's block), row i at (i - row_begin)·n
   };
   explicit FormFactorMatrix(Parts&& p);
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
@@ -180,6 +181,15 @@ class FormFactorMatrix {
   FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
                    size_t row_begin = 0, size_t row_end = SIZE_MAX);
   FFMatrixView view() const;
+  // The rows it holds, [row_begin, row_end) of n: every row, or an MPI rank's block (dense: those rows' values; the
+  // sparse storages index every row and leave the others empty).
+  size_t row_begin() const { return row_begin_; }
+  size_t row_end() const { return row_end_; }
+  size_t rows() const { return row_end_ - row_begin_; }
+  // Dense float32: its values, rows() × n, to threshold in place (apply_threshold); otherwise null.
+  float* dense_float32_values() {
+    return opt_.storage == FFStorage::dense && opt_.values == FFValues::float32 ? f32_.data() : nullptr;
+  }
   size_t kept() const { return kept_; }  // values kept (sparse: bridges, merged zeros not counted) or non-zero (dense)
   size_t bridges() const { return bridges_; }  // compressed's bridges, runs' runs of length 0
   RunCounts runs() const;                      // runs: its runs and stored values; otherwise 0
@@ -191,7 +201,7 @@ class FormFactorMatrix {
   void build_runs(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1, Store& store,
                   Allocate& allocate);
 
-  size_t n_, kept_ = 0, bridges_ = 0;
+  size_t n_, kept_ = 0, bridges_ = 0, row_begin_ = 0, row_end_ = 0;
   FFMatrixOptions opt_;
   double scale_ = 1;
   std::vector<float> f32_;

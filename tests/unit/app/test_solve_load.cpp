@@ -1,4 +1,4 @@
-// The load (solve_load.cpp): the mesh, the form factors in one block-of-rows type, the run's matrix, the memory.
+// The load (solve_load.cpp): the mesh, the form factors in the one FormFactorMatrix, the run's matrix, the memory.
 #include <string>
 
 #include "common/errors.hpp"
@@ -15,10 +15,12 @@ TEST_F(SolvePhases, LoadsTheDenseFileAsItIs) {
   EXPECT_EQ(L.n, 4u);
   EXPECT_EQ(L.patches, "4 patches");
   EXPECT_FALSE(L.sparse_file);
-  EXPECT_EQ(L.ff.rows(), 4u);
-  EXPECT_EQ(L.ff.values.size(), 16u);
-  EXPECT_EQ(L.sys.F, L.ff.values.data());
-  EXPECT_EQ(L.ff.params.resolution, 32);
+  ASSERT_NE(L.matrix, nullptr);  // the one matrix: the file's values, every row, dense float32
+  EXPECT_EQ(L.matrix->rows(), 4u);
+  EXPECT_EQ(L.matrix->view().storage, FFStorage::dense);
+  EXPECT_EQ(L.sys.matrix.data, L.matrix->view().data);
+  EXPECT_EQ(dense_float32(L.sys), L.matrix->dense_float32_values());
+  EXPECT_EQ(L.params.resolution, 32);
   EXPECT_TRUE(L.same_matrix);  // float32, nothing dropped: the reference is solved after the run, on this matrix
   EXPECT_FALSE(L.have_ref);
   EXPECT_EQ(L.skipped_rows, 2u);  // the emitting squares reflect nothing
@@ -32,9 +34,9 @@ TEST_F(SolvePhases, RoundedValuesTakeTheirReferenceBeforeRounding) {
   load_solve(args, plan_solve(args), L);
   EXPECT_EQ(L.storage, FFStorage::dense);
   ASSERT_NE(L.matrix, nullptr);
-  EXPECT_EQ(L.sys.F, nullptr);
-  EXPECT_EQ(L.sys.stored.values, FFValues::float16);
-  EXPECT_TRUE(L.ff.values.empty());  // the dense values were given back
+  EXPECT_EQ(dense_float32(L.sys), nullptr);  // the run's matrix replaced the file's dense values
+  EXPECT_EQ(L.sys.matrix.values, FFValues::float16);
+  EXPECT_EQ(L.matrix->dense_float32_values(), nullptr);
   EXPECT_FALSE(L.same_matrix);
   ASSERT_TRUE(L.have_ref);
   EXPECT_TRUE(L.ref.converged);
@@ -54,5 +56,5 @@ TEST_F(SolvePhases, MemoryLimitRefusesBeforeLoading) {
   args.max_memory_per_rank = "1K";
   LoadedSolve L;
   EXPECT_THROW(load_solve(args, plan_solve(args), L), hpcgi::UsageError);
-  EXPECT_TRUE(L.ff.values.empty());
+  EXPECT_EQ(L.matrix, nullptr);  // nothing read
 }

@@ -61,8 +61,7 @@ FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, ui
 
 System system_of(const Problem& p, const FormFactorMatrix& m) {
   System s = p.sys;
-  s.F = nullptr;
-  s.stored = m.view();
+  s.matrix = m.view();
   return s;
 }
 
