@@ -7,9 +7,8 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix_file.hpp"
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif
@@ -208,7 +207,7 @@ std::vector<uint64_t> row_counts(const Problem& L, const FFMatrixOptions& opt) {
   return counts;
 }
 
-// A csr, compressed or runs rank's rows balanced by their cost in the product (csr_kernels.hpp's: its entries and
+// A csr, compressed or runs rank's rows balanced by their cost in the product (ff_matrix.hpp's: its entries and
 // kRowCost; runs: and kRunCost a run, ff_matrix.hpp), not by count: the rows are counted in the blocks of equal
 // count that were read, the ranks' counts summed, the blocks split again, and each rank reads its new block (the
 // file a second time; the first block is freed before). --max-memory-per-rank is checked again here on the new

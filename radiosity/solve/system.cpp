@@ -5,7 +5,7 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {

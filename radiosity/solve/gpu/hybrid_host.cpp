@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdint>
 
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {
 
