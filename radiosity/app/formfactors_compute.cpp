@@ -1,7 +1,6 @@
 // formfactors' compute (this rank's rows by the hemicube, and their diagnostics) and write (the file at -o).
 #include <algorithm>
 #include <cmath>
-#include <utility>
 
 #include "common/comm.hpp"
 #include "common/memory.hpp"
@@ -19,7 +18,7 @@ namespace radiosity::app {
 namespace {
 
 // The smallest and largest row sum of a block of rows, across the ranks.
-void row_sums(const FormFactorRows& rows, FormFactorDiagnostics& d) {
+void row_sums(const FormFactors& rows, FormFactorDiagnostics& d) {
   d.min_row_sum = HUGE_VAL, d.max_row_sum = -HUGE_VAL;
   for (size_t k = 0; k < rows.rows(); ++k) {
     double sum = 0;
@@ -33,7 +32,7 @@ void row_sums(const FormFactorRows& rows, FormFactorDiagnostics& d) {
 
 // A csr, compressed or runs file (version 2) of one process's rows: every row kept (the file belongs to the geometry),
 // the copy's memory checked before it is built.
-void save_sparse_form_factors(const std::string& path, const Mesh& m, const FormFactorRows& rows,
+void save_sparse_form_factors(const std::string& path, const Mesh& m, const FormFactors& rows,
                               const std::string& storage, const std::string& precision) {
   const size_t n = rows.n;
   const std::vector<Rgb> every_row(n, Rgb{1, 1, 1});
@@ -66,9 +65,7 @@ ComputedRows compute_formfactors(const FormFactorArgs& a, const Mesh& m, const F
   // computed where one process holds all of F only.
   t.reset();
   if (ranks == 1) {
-    FormFactors whole = from_rows(std::move(c.rows));
-    c.d = diagnose_form_factors(m, whole);
-    c.rows = to_rows(std::move(whole));
+    c.d = diagnose_form_factors(m, c.rows);
     c.reciprocity = true;
   } else {
     row_sums(c.rows, c.d);
@@ -79,7 +76,7 @@ ComputedRows compute_formfactors(const FormFactorArgs& a, const Mesh& m, const F
   return c;
 }
 
-WriteStats write_formfactors(const FormFactorArgs& a, const Mesh& m, FormFactorRows& rows) {
+WriteStats write_formfactors(const FormFactorArgs& a, const Mesh& m, const FormFactors& rows) {
   WriteStats w;
   hpcgi::Timer t;
   if (hpcgi::comm::active()) {
@@ -90,7 +87,7 @@ WriteStats write_formfactors(const FormFactorArgs& a, const Mesh& m, FormFactorR
     w.checksum_s = st.checksum_s;
 #endif
   } else if (a.storage == "dense") {
-    save_form_factors(a.out, m, from_rows(std::move(rows)));
+    save_form_factors(a.out, m, rows);
   } else {
     save_sparse_form_factors(a.out, m, rows, a.storage, a.ff_precision);
   }

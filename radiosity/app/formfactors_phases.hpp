@@ -42,7 +42,7 @@ FormFactorSplit split_formfactors(const FormFactorArgs& a, const Mesh& m, const 
 
 // This rank's rows and their diagnostics: row sums from every rank, reciprocity on one process only.
 struct ComputedRows {
-  FormFactorRows rows;
+  FormFactors rows;  // this rank's rows (every row on one process)
   FormFactorDiagnostics d;
   bool reciprocity = false;
   uint64_t nonzero = 0;  // over all ranks
@@ -56,7 +56,7 @@ ComputedRows compute_formfactors(const FormFactorArgs& a, const Mesh& m, const F
 struct WriteStats {
   double save_s = 0, rank_io_s = 0, chain_s = 0, checksum_s = 0;
 };
-WriteStats write_formfactors(const FormFactorArgs& a, const Mesh& m, FormFactorRows& rows);
+WriteStats write_formfactors(const FormFactorArgs& a, const Mesh& m, const FormFactors& rows);
 
 // The record of the run (collective under MPI: its "mpi" section gathers from every rank); result.file_bytes is
 // added by the root once the file is complete.

@@ -20,8 +20,8 @@
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
 #include "radiosity/render/camera.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/exec.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity::app {
 namespace {

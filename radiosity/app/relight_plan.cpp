@@ -6,7 +6,7 @@
 #include "common/timer.hpp"
 #include "radiosity/app/relight_phases.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 
 namespace radiosity::app {
 

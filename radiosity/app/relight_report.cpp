@@ -4,7 +4,7 @@
 #include <cstdio>
 
 #include "radiosity/app/relight_phases.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 
 namespace radiosity::app {
 namespace {

@@ -27,12 +27,7 @@ std::vector<Rgb> as_rgb(const std::vector<float>& flat) {
 
 // The frame's system on the stored F the reflectivity frames read (RRV's start: a cold solve).
 System frame_system(const RelightInputs& in, const Mesh& fm) {
-  System sys = make_system(fm, in.ff.values.data());
-  if (in.matrix) {
-    sys.F = nullptr;
-    sys.stored = in.frame_view;
-  }
-  return sys;
+  return make_system(fm, in.frame_view);
 }
 
 // One solve of the frame from `prev`, stopped before it would pass the frame budget (budget_s > 0).

@@ -7,10 +7,8 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/timer.hpp"
-#include "radiosity/app/solve_verify.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix_file.hpp"
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 #ifdef HAVE_MPI
 #include "radiosity/dist/ff_mpi.hpp"
 #endif
@@ -18,7 +16,7 @@
 namespace radiosity::app {
 namespace {
 
-void load_mesh(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+void mesh_of(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   L.m = hpcgi::comm::agreed([&] {
     Mesh mesh = load_scene(a, &L.load_s);
     require_rows_for_ranks(mesh.size(), p.dist ? p.ranks : 1);
@@ -32,10 +30,11 @@ void load_mesh(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
 // A sparse file (version 2) is read as it is stored, never dense (ff_matrix_file.hpp). Its header says so; what
 // is no file at all is taken for a dense one here (the memory check refuses it from the patch count, the load
 // by what it is).
-void read_file_info(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+void read_file_info(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   L.file_info = hpcgi::comm::agreed([&] {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(a.ff, ec)) return FormFactorFileInfo{};
+    L.file_checked = true;
     FormFactorFileInfo info = check_any_form_factor_file(a.ff, L.m);
     if (info.version != 1) plan_sparse_file(a, *p.backend, info);
     return info;
@@ -44,7 +43,7 @@ void read_file_info(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
 }
 
 // What a process holds of a solve, in words: the file's values, their 16-bit copy, the vectors, the picture.
-std::string held_in_words(const SolvePlan& p, const LoadedSolve& L, double copy_bytes, double picture_bytes) {
+std::string held_in_words(const SolvePlan& p, const Problem& L, double copy_bytes, double picture_bytes) {
   const std::string values = L.sparse_file ? L.file_info.storage + " " + L.file_info.precision : "dense float32";
   const std::string rows =
       p.dist ? "of rank " + std::to_string(p.rank) + "'s " + std::to_string(L.block.rows()) + " rows " : "";
@@ -57,7 +56,7 @@ std::string held_in_words(const SolvePlan& p, const LoadedSolve& L, double copy_
 // file's matrix, a 16-bit dense copy, the vectors; a CSR copy is checked once its size is known (the kept values
 // are counted after loading). --max-memory-per-rank is checked first, the same on every rank (the split depends
 // on the mesh only).
-void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+void check_memory(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   const size_t n = L.n;
   const bool dense16 = p.storage == FFStorage::dense && p.values != FFValues::float32, sparse = L.sparse_file;
   const double sparse_bytes = double(L.file_info.payload_bytes);
@@ -89,50 +88,64 @@ void check_memory(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   });
 }
 
-// The file's values as stored: a sparse file's matrix, an MPI rank's block of rows, or every row.
-void read_form_factors(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+// A dense file's values (every row, or an MPI rank's block) as the one FormFactorMatrix: dense float32, the values
+// moved, not copied.
+std::unique_ptr<FormFactorMatrix> dense_matrix(FormFactors&& ff) {
+  FormFactorMatrix::Parts parts;
+  parts.n = ff.n;
+  parts.row_begin = ff.first_row();
+  parts.row_end = ff.last_row();
+  parts.f32 = std::move(ff.values);
+  return std::make_unique<FormFactorMatrix>(std::move(parts));
+}
+
+// The file's values as stored, in the one matrix: a sparse file's, an MPI rank's block of rows, or every row. The
+// header read once (read_file_info) is not read again.
+void read_values(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   hpcgi::Timer t;
+  if (!L.file_checked)  // no file: refused here by what it is, as every reader refuses it
+    hpcgi::comm::agreed([&] { check_any_form_factor_file(a.ff, L.m); });
+  L.params = L.file_info.params;
   if (L.sparse_file) {
-    L.ff.n = L.n;
-    L.ff.row_end = L.n;
-    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.m, &L.ff.params));
+    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.file_info));
   } else if (p.dist) {
 #ifdef HAVE_MPI
     dist::FileStats st;
-    L.ff = dist::load_form_factor_rows(a.ff, L.m, L.block, &st);
+    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, L.block, &st));
     L.rank_read_s = st.io_s;
     L.rank_checksum_s = st.checksum_s;
     L.rank_chain_s = st.chain_s;
 #endif
   } else {
-    L.ff = to_rows(load_form_factors(a.ff, L.m));
+    L.matrix = dense_matrix(load_form_factors(a.ff, L.file_info));
   }
   L.ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
-  L.sys = make_system(L.m, L.ff.values.empty() ? &kNoRows : L.ff.values.data());
-  if (L.sparse_file) {
-    L.sys.F = nullptr;
-    L.sys.stored = L.matrix->view();
-  }
+  FFMatrixView view = L.matrix->view();
+  if (!view.data && view.storage == FFStorage::dense) view.data = &kNoRows;
+  L.sys = make_system(L.m, view);
   if (p.dist) {
     L.sys.rows_begin = L.block.begin;
     L.sys.rows_end = L.block.end;
   }
 }
 
+// The file's dense float32 values (this process's rows), or null for a sparse file.
+const float* file_values(const Problem& L) { return L.sparse_file ? nullptr : dense_float32(L.sys); }
+
 // The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
 // (the threshold dropped some), *bridges (compressed's) and *runs (the runs storage's).
-FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, bool* dropped, size_t* bridges,
+FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, Problem& L, bool* dropped, size_t* bridges,
                          RunCounts* runs) {
   const System& sys = L.sys;
   // Counted over this process's rows (on MPI ranks: summed over the ranks).
   StorageCounts c;
   c.n = L.n;
   if (!L.sparse_file)
-    c = count_storages(sys.F, L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
+    c = count_storages(file_values(L), L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
                        L.block.begin, L.block.end);
   uint64_t counts[6] = {c.kept, c.bridges, c.rows_needed, c.runs.runs, c.runs.entries,
-                        !L.sparse_file && a.threshold > 0 ? count_kept(sys.F, L.n, sys.reflectivity, 0, L.block.begin,
+                        !L.sparse_file && a.threshold > 0 ? count_kept(file_values(L), L.n, sys.reflectivity, 0, L.block.begin,
                                                                        L.block.end)
                                                           : c.kept};
   hpcgi::comm::sum(counts, 6);
@@ -147,7 +160,7 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L,
 }
 
 // The dense file's values in the run's storage and precision (the dense values are given back).
-void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_t bridges, const RunCounts& runs) {
+void convert_dense(const SolveArgs& a, const SolvePlan& p, Problem& L, size_t bridges, const RunCounts& runs) {
   const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges, runs);
   // The dense file's values and the copy are held at once while it is built: that is what the limit must allow.
   const double held = L.file_bytes + bytes + vector_bytes(L.n);
@@ -165,19 +178,18 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, size_
   opt.storage = L.storage;
   opt.values = p.values;
   opt.threshold = a.threshold;
-  L.matrix = std::make_unique<FormFactorMatrix>(L.ff.values.data(), L.n, L.sys.reflectivity, opt);
-  std::vector<float>().swap(L.ff.values);  // the dense values are no longer needed: give their memory back
-  L.sys.F = nullptr;
-  L.sys.stored = L.matrix->view();
+  // The dense values are no longer needed once the run's matrix is built: replacing the one matrix gives them back.
+  L.matrix = std::make_unique<FormFactorMatrix>(file_values(L), L.n, L.sys.reflectivity, opt);
+  L.sys.matrix = L.matrix->view();
 }
 
 #ifdef HAVE_MPI
 // Each row's entries in opt's storage (its kept values, and compressed's bridges; runs: its stored values) at i and
 // its runs (runs storage) at n + i, counted in this rank's dense block and summed over the ranks.
-std::vector<uint64_t> row_counts(const LoadedSolve& L, const FFMatrixOptions& opt) {
+std::vector<uint64_t> row_counts(const Problem& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
   std::vector<uint64_t> counts(2 * n, 0);
-  const float* F = L.ff.values.data();
+  const float* F = file_values(L);
   const auto& rho = L.sys.reflectivity;
 #pragma omp parallel for schedule(dynamic, 64)
   for (size_t i = L.block.begin; i < L.block.end; ++i) {
@@ -195,12 +207,12 @@ std::vector<uint64_t> row_counts(const LoadedSolve& L, const FFMatrixOptions& op
   return counts;
 }
 
-// A csr, compressed or runs rank's rows balanced by their cost in the product (csr_kernels.hpp's: its entries and
+// A csr, compressed or runs rank's rows balanced by their cost in the product (ff_matrix.hpp's: its entries and
 // kRowCost; runs: and kRunCost a run, ff_matrix.hpp), not by count: the rows are counted in the blocks of equal
 // count that were read, the ranks' counts summed, the blocks split again, and each rank reads its new block (the
 // file a second time; the first block is freed before). --max-memory-per-rank is checked again here on the new
 // blocks: the dense rows a rank reads and its matrix (ff_storage_bytes) are held at once while it is built.
-void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const FFMatrixOptions& opt) {
+void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, Problem& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
   const std::vector<uint64_t> counts = row_counts(L, opt);
   std::vector<uint64_t> work(n);
@@ -226,9 +238,10 @@ void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L
   L.rank_needs = needs(p.ranks);
   const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
   if (block.begin != L.block.begin || block.end != L.block.end) {
-    std::vector<float>().swap(L.ff.values);  // the rows read before: counted, no longer needed
+    L.matrix.reset();  // the rows read before: counted, no longer needed
     dist::FileStats st;
-    L.ff = dist::load_form_factor_rows(a.ff, L.m, block, &st);
+    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, block, &st));
+    L.sys.matrix = L.matrix->view();
     L.rank_read_s += st.io_s;
     L.rank_checksum_s += st.checksum_s;
     L.rank_chain_s += st.chain_s;
@@ -239,21 +252,19 @@ void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L
 // Backend mpi in a storage other than dense float32: each rank's rows in that storage, built from the dense file's
 // rows (a sparse storage's rows balanced first: balance_rows_by_cost). The float16 scale is every rank's largest
 // value, so that every rank rounds as one process.
-void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   const size_t n = L.n;
   FFMatrixOptions opt;
   opt.storage = L.storage;
   opt.values = p.values;
   opt.threshold = a.threshold;
-  opt.largest = float(hpcgi::comm::max(double(largest_abs(L.ff.values.data(), L.block.rows() * n))));
+  opt.largest = float(hpcgi::comm::max(double(largest_abs(file_values(L), L.block.rows() * n))));
   if (L.storage != FFStorage::dense) balance_rows_by_cost(a, p, L, opt);
-  L.matrix = hpcgi::comm::agreed([&] {
-    return std::make_unique<FormFactorMatrix>(L.ff.values.data(), n, L.sys.reflectivity, opt, L.block.begin,
+  L.matrix = hpcgi::comm::agreed([&] {  // the rank's dense rows are given back as the one matrix is replaced
+    return std::make_unique<FormFactorMatrix>(file_values(L), n, L.sys.reflectivity, opt, L.block.begin,
                                               L.block.end);
   });
-  std::vector<float>().swap(L.ff.values);
-  L.sys.F = nullptr;
-  L.sys.stored = L.matrix->view();
+  L.sys.matrix = L.matrix->view();
   L.sys.rows_begin = L.block.begin;
   L.sys.rows_end = L.block.end;
   double bytes = L.matrix->bytes();
@@ -262,24 +273,25 @@ void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
 }
 #endif
 
-// The run's form factors: threshold, storage and precision (the error reference before they are rounded, where
-// it is due then: solve_reference_at).
-void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
+// The storage the run takes and what it keeps (counted on the file's values), and so whether the run's matrix is the
+// file's values as read.
+void choose(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   hpcgi::Timer t;
-  bool dropped = false;
-  size_t bridges = 0;
-  RunCounts runs;
-  L.storage = choose_storage(a, p, L, &dropped, &bridges, &runs);
+  L.storage = choose_storage(a, p, L, &L.dropped, &L.bridges, &L.runs);
+  L.same_matrix = L.sparse_file || (p.values == FFValues::float32 && !L.dropped);
+  L.choose_s = t.seconds();
+}
+
+// The run's form factors: threshold, storage and precision, as chosen.
+void build(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+  hpcgi::Timer t;
+  const bool dropped = L.dropped;
+  const size_t bridges = L.bridges;
+  const RunCounts& runs = L.runs;
   const bool as_file = L.storage == FFStorage::dense && p.values == FFValues::float32;
-  // A sparse file's values are the run's: its reference is solved on them.
-  L.same_matrix = !L.have_ref && (L.sparse_file || (p.values == FFValues::float32 && !dropped));
-  const bool had_ref = L.have_ref;
-  solve_reference_at(ReferencePoint::before_rounding, a, L);
-  // A reference solved here is no part of building the run's form factors.
-  const double ref_in_build_s = L.have_ref && !had_ref ? L.ref.seconds : 0;
   L.matrix_storage_bytes = 4 * L.n2;  // all ranks together
   if (as_file) {
-    if (dropped) apply_threshold(L.ff.values.data(), L.n, a.threshold, L.block.rows());
+    if (dropped) apply_threshold(L.matrix->dense_float32_values(), L.n, a.threshold, L.block.rows());
   } else if (L.sparse_file) {
     L.matrix_storage_bytes = L.matrix->bytes();
   } else if (p.dist) {
@@ -299,7 +311,7 @@ void build_matrix(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
   if (p.cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
     hpcgi::require_host_memory("backend original's cache lines for " + L.patches,
                                16.0 * (double(L.kept) + double(rows_without_reflection) * double(L.n)));
-  L.ff_build_s = t.seconds() - ref_in_build_s;
+  L.ff_build_s = L.choose_s + t.seconds();
 }
 
 }  // namespace
@@ -312,13 +324,28 @@ std::string gib(double bytes) {
 
 double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
 
-void load_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L) {
-  load_mesh(a, p, L);
-  solve_reference_at(ReferencePoint::before_form_factors, a, L);  // --reference-ff's, freed before ours are read
-  read_file_info(a, p, L);
-  check_memory(a, p, L);
-  read_form_factors(a, p, L);
-  build_matrix(a, p, L);
+Problem load_mesh(const SolveArgs& a, const SolvePlan& p) {
+  Problem P;
+  mesh_of(a, p, P);
+  return P;
+}
+
+void read_form_factors(const SolveArgs& a, const SolvePlan& p, Problem& P) {
+  read_file_info(a, p, P);
+  check_memory(a, p, P);
+  read_values(a, p, P);
+  choose(a, p, P);
+}
+
+void build_matrix(const SolveArgs& a, const SolvePlan& p, Problem& P) {
+  build(a, p, P);
+}
+
+Problem load_solve(const SolveArgs& a, const SolvePlan& p) {
+  Problem P = load_mesh(a, p);
+  read_form_factors(a, p, P);
+  build_matrix(a, p, P);
+  return P;
 }
 
 }  // namespace radiosity::app

@@ -1,22 +1,23 @@
 // Phase 2 of `bin/radiosity solve` (solve_cmd.cpp): the load. The scene, its mesh, the form factors of --ff in the
-// one block-of-rows type (FormFactorRows: every row, or an MPI rank's block; a sparse file as its matrix), the
-// matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. The
-// load asks solve_reference_at (solve_verify.hpp) at the two points where the error reference may be due before
-// the run: before the run's own form factors are read, and before the file's values are thresholded or rounded.
+// one FormFactorMatrix (dense: every row, or an MPI rank's block; a sparse file as stored), the
+// matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. Its
+// three steps return and fill one Problem; run_solve calls them in turn, and between them, where memory asks for it,
+// the error reference's own phase (solve_verify.hpp: before the run's form factors are read, and before the file's
+// values are thresholded or rounded). The load never calls it.
 #pragma once
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "radiosity/app/distributed.hpp"
-#include "radiosity/app/reference.hpp"
 #include "radiosity/app/solve_plan.hpp"
 #include "radiosity/dist/split.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
+#include "radiosity/solve/system.hpp"
 
 namespace radiosity::app {
 
-struct LoadedSolve {
+struct Problem {
   Mesh m;
   size_t n = 0;
   double n2 = 0;          // n², the dense matrix's entries
@@ -24,24 +25,38 @@ struct LoadedSolve {
   double load_s = 0, ff_load_s = 0, ff_build_s = 0;
   FormFactorFileInfo file_info;  // version 1: dense (or not yet a file), else sparse
   bool sparse_file = false;
+  bool file_checked = false;     // file_info is the --ff file's header, read once and checked
   dist::RowBlock block;              // this process's rows
   std::vector<RankNeed> rank_needs;  // what each rank holds (the record's mpi section)
   double file_bytes = 0;             // the file's values this process holds
-  FormFactorRows ff;                 // the file's dense values (empty for a sparse file)
-  std::unique_ptr<FormFactorMatrix> matrix;  // the run's matrix when it is not ff itself
+  HemicubeParams params;             // the file's hemicube
+  // The one form-factor matrix: the file's values as read (dense: this process's rows), then the run's (threshold,
+  // storage, precision), which replaces them. sys views it.
+  std::unique_ptr<FormFactorMatrix> matrix;
   System sys;
   FFStorage storage = FFStorage::dense;
   size_t kept = 0, skipped_rows = 0;
+  bool dropped = false;  // the threshold drops some of the file's values
+  size_t bridges = 0;    // the chosen storage's: compressed's bridges
+  RunCounts runs;        // and the runs storage's runs
   double matrix_storage_bytes = 0;
   double rank_read_s = 0, rank_checksum_s = 0, rank_chain_s = 0;  // backend mpi: this rank's read of its rows
-  ErrorReference ref;        // the error reference, once solved (have_ref)
-  bool have_ref = false;
-  bool same_matrix = false;  // the run's matrix is the reference's: the reference is the converged solution
+  // The run's matrix is the file's values as read (nothing thresholded or rounded): a reference on them is the
+  // run's own converged solution, and can wait for the run.
+  bool same_matrix = false;
+  double choose_s = 0;  // choosing the storage (counting the kept values), part of ff_build_s
 };
 
-// Fills L (it holds the system's matrix: L is not moved). Throws hpcgi::UsageError (agreed) for a scene or file
-// that does not fit the request or the memory.
-void load_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L);
+// The load's steps. Each throws hpcgi::UsageError (agreed) for a scene or file that does not fit the request or
+// the memory. The mesh: a Problem without form factors.
+Problem load_mesh(const SolveArgs& a, const SolvePlan& p);
+// The --ff file, its header read and checked once: memory, its values as stored in the one matrix, the storage the
+// run will take (so same_matrix).
+void read_form_factors(const SolveArgs& a, const SolvePlan& p, Problem& P);
+// The run's matrix from the file's values: threshold, storage, precision (the file's values are given back).
+void build_matrix(const SolveArgs& a, const SolvePlan& p, Problem& P);
+// The three in turn, for a caller that takes no error reference between them.
+Problem load_solve(const SolveArgs& a, const SolvePlan& p);
 
 // The bytes in GiB, as the memory messages say them.
 std::string gib(double bytes);

@@ -6,7 +6,7 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/files.hpp"
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 
 namespace radiosity::app {
 namespace {

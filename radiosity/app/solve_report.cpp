@@ -19,7 +19,7 @@ json or_null(bool given, const json& v) { return given ? v : json(); }
 json params_json(const SolveReport& r) {
   const SolveArgs& a = r.a;
   const SolveConfig& cfg = r.p.cfg;
-  const FormFactorRows& ff = r.L.ff;
+  const HemicubeParams& hemicube = r.L.params;
   const bool hybrid = cfg.backend == "hybrid", fixed = cfg.steps > 0;
   return {{"command", "solve"},
           {"scene", a.scene},
@@ -37,9 +37,9 @@ json params_json(const SolveReport& r) {
           {"history", cfg.history},
           {"max_iter", cfg.max_iter},
           {"threads", r.run.res.threads},
-          {"hemicube", ff.params.resolution},
-          {"weights", to_string(ff.params.weights)},
-          {"ff_threshold", ff.params.threshold},
+          {"hemicube", hemicube.resolution},
+          {"weights", to_string(hemicube.weights)},
+          {"ff_threshold", hemicube.threshold},
           {"ff_file", a.ff},
           {"storage", to_string(r.L.storage)},
           {"storage_requested", a.storage},
@@ -55,7 +55,7 @@ json params_json(const SolveReport& r) {
 
 json result_json(const SolveReport& r) {
   const SolveResult& res = r.run.res;
-  const LoadedSolve& L = r.L;
+  const Problem& L = r.L;
   json j = {{"status", to_string(res.status)},
             {"converged", res.status == SolveStatus::converged},
             {"iterations", res.iterations},
@@ -85,7 +85,7 @@ void add_radiosity_range(json& result, const std::vector<Rgb>& B) {
 
 // result.error_vs_reference, result.reference and the verify section.
 void add_verification(json& rec, const SolveReport& r) {
-  const ErrorReference& ref = r.L.ref;
+  const ErrorReference& ref = r.c.ref;
   if (!r.c.made) {
     rec["result"]["error_vs_reference"] = nullptr;
     rec["verify"] = {{"agreed", nullptr}};
@@ -122,7 +122,7 @@ void add_times_and_perf(json& rec, const SolveReport& r) {
   const bool gpu = on_gpu(res);
   rec["times_s"] = {{"load", r.L.load_s},     {"ff_load", r.L.ff_load_s},     {"ff_build", r.L.ff_build_s},
                     {"setup", res.setup_s},   {"solve", res.solve_s},         {"per_iteration", per_iteration_s(res)},
-                    {"check", res.check_s},   {"verify", r.c.v.seconds},      {"reference", r.L.ref.seconds},
+                    {"check", res.check_s},   {"verify", r.c.v.seconds},      {"reference", r.c.ref.seconds},
                     {"total", r.total_s}};
   if (gpu) {
     rec["times_s"]["upload"] = res.upload_s;
@@ -219,7 +219,7 @@ json history_json(const SolveResult& res, const SolveConfig& cfg) {
 void print_summary(const SolveReport& r) {
   const SolveArgs& a = r.a;
   const SolveConfig& cfg = r.p.cfg;
-  const LoadedSolve& L = r.L;
+  const Problem& L = r.L;
   const SolveResult& res = r.run.res;
   std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), L.m.size(),
               to_string(cfg.method).c_str(), to_string(cfg.layout).c_str(), cfg.backend.c_str(),
@@ -239,8 +239,8 @@ void print_summary(const SolveReport& r) {
   if (r.c.made) {
     std::printf("  float64 reference: max relative difference %.3e (bound %.1e): %s\n", r.c.v.max_rel_diff,
                 r.c.v.bound, r.c.v.agreed ? "agreed" : "DISAGREED");
-    std::printf("  error against the float64 solution to %.0e of %s: %.3e%s\n", kReferenceTol, L.ref.of.c_str(),
-                r.c.error, L.ref.converged ? "" : " (that solution did not converge: no error bound)");
+    std::printf("  error against the float64 solution to %.0e of %s: %.3e%s\n", kReferenceTol, r.c.ref.of.c_str(),
+                r.c.error, r.c.ref.converged ? "" : " (that solution did not converge: no error bound)");
   }
   std::printf("  time: load %.3f s, form factors %.3f s, setup %.4f s, solve %.4f s (%.4g ms/iteration, %.2f GB/s)\n",
               L.load_s, L.ff_load_s, res.setup_s, res.solve_s, per_iteration_s(res) * 1e3, bandwidth_GBps(res));

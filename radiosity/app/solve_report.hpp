@@ -13,7 +13,7 @@ namespace radiosity::app {
 struct SolveReport {
   const SolveArgs& a;
   const SolvePlan& p;
-  const LoadedSolve& L;
+  const Problem& L;
   const SolveRun& run;
   const Checked& c;
   double total_s;  // since the run began

@@ -8,7 +8,7 @@
 
 namespace radiosity::app {
 
-SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const LoadedSolve& L) {
+SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L) {
   SolveRun run;
   run.cam = hpcgi::comm::agreed([&] { return parse_view(a.view, L.m); });
   run.ropt.exposure = a.exposure;

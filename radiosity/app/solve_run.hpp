@@ -18,6 +18,6 @@ struct SolveRun {
 };
 
 // Solves L.sys as p.cfg says, on every rank. A snapshot that could not be written is thrown after the solve.
-SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const LoadedSolve& L);
+SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L);
 
 }  // namespace radiosity::app

@@ -69,34 +69,37 @@ ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m) {
 
 }  // namespace
 
-void solve_reference_at(ReferencePoint at, const SolveArgs& a, LoadedSolve& L) {
-  if (!a.verify || L.have_ref) return;
+void solve_reference_at(ReferencePoint at, const SolveArgs& a, const Problem& P, References& R) {
+  if (!a.verify || R.have) return;
   switch (at) {
     case ReferencePoint::before_form_factors:
       if (a.reference_ff.empty()) return;
-      L.ref = reference_from_file(a, L.m);
+      R.ref = reference_from_file(a, P.m);
+      R.from_file = true;
       break;
     case ReferencePoint::before_rounding:
-      if (L.same_matrix) return;  // the run solves the file's values as they are: its reference can wait for it
-      L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+      if (P.same_matrix) return;  // the run solves the file's values as they are: its reference can wait for it
+      R.ref = hpcgi::comm::agreed([&] { return converged_reference(P.sys, ""); });
       break;
     case ReferencePoint::after_run:
-      L.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
+      R.ref = hpcgi::comm::agreed([&] { return converged_reference(P.sys, ""); });
       break;
   }
-  L.have_ref = true;
+  R.have = true;
 }
 
-Checked verify_solve(const SolveArgs& a, const SolvePlan& p, LoadedSolve& L, const SolveResult& res) {
+Checked verify_solve(const SolveArgs& a, const SolvePlan& p, const Problem& P, References&& R, const SolveResult& res) {
   Checked c;
   c.made = a.verify && !failed(res.status);
   if (c.made) {
-    solve_reference_at(ReferencePoint::after_run, a, L);
-    if (L.ref.of.empty())
-      L.ref.of = a.ff + (L.same_matrix ? "" : " before threshold and rounding") + " (" + L.patches + ")";
-    c.v = hpcgi::comm::agreed([&] { return verify(L.sys, p.cfg, res, L.same_matrix ? &L.ref : nullptr); });
-    c.error = max_rel_diff(res.B, L.ref.B);
+    // The reference is the run's converged solution when the run's matrix is the file's and no other file gave it.
+    const bool same = P.same_matrix && !R.from_file;
+    solve_reference_at(ReferencePoint::after_run, a, P, R);
+    if (R.ref.of.empty()) R.ref.of = a.ff + (same ? "" : " before threshold and rounding") + " (" + P.patches + ")";
+    c.v = hpcgi::comm::agreed([&] { return verify(P.sys, p.cfg, res, same ? &R.ref : nullptr); });
+    c.error = max_rel_diff(res.B, R.ref.B);
   }
+  c.ref = std::move(R.ref);
   c.outcome = outcome_of(res, p.cfg, c.made ? &c.v : nullptr);
   return c;
 }

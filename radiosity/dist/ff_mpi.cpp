@@ -66,7 +66,7 @@ uint64_t chained_checksum(const void* data, size_t bytes, FileStats& st) {
 
 }  // namespace
 
-FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const FormFactorRows& rows) {
+FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const FormFactors& rows) {
   const int rank = hpcgi::comm::rank(), size = hpcgi::comm::size();
   const size_t n = mesh.size();
   if (rows.n != n || rows.values.size() != rows.rows() * n)
@@ -119,7 +119,7 @@ FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const
     error = transfer<true>(fh, 0, header.data(), header.size());
   }
   if (error.empty())
-    error = transfer<true>(fh, info.row_offset(rows.row_begin),
+    error = transfer<true>(fh, info.row_offset(rows.first_row()),
                            reinterpret_cast<char*>(const_cast<float*>(rows.values.data())),
                            uint64_t(rows.values.size()) * sizeof(float));
   st.io_s = t.seconds();
@@ -142,16 +142,20 @@ FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const
   return st;
 }
 
-FormFactorRows load_form_factor_rows(const std::string& path, const Mesh& expected, RowBlock block,
-                                     FileStats* stats) {
+FormFactors load_form_factor_rows(const std::string& path, const Mesh& expected, RowBlock block, FileStats* stats) {
+  const FormFactorFileInfo info = hpcgi::comm::agreed([&] { return check_form_factor_file(path, expected); });
+  return load_form_factor_rows(path, info, block, stats);
+}
+
+FormFactors load_form_factor_rows(const std::string& path, const FormFactorFileInfo& info, RowBlock block,
+                                  FileStats* stats) {
   const int rank = hpcgi::comm::rank(), size = hpcgi::comm::size();
   const std::string file = "form-factor file '" + path + "'";
-  const FormFactorFileInfo info = hpcgi::comm::agreed([&] { return check_form_factor_file(path, expected); });
   if (block.begin > block.end || block.end > info.n)
     throw std::invalid_argument("load_form_factor_rows: rows " + std::to_string(block.begin) + ".." +
                                 std::to_string(block.end) + " of " + std::to_string(info.n));
   FileStats st;
-  FormFactorRows rows;
+  FormFactors rows;
   rows.n = info.n;
   rows.params = info.params;
   rows.row_begin = block.begin;
@@ -181,7 +185,7 @@ FormFactorRows load_form_factor_rows(const std::string& path, const Mesh& expect
   int ok = rank == size - 1 ? int(sum == stored) : 0;
   MPI_Bcast(&ok, 1, MPI_INT, size - 1, MPI_COMM_WORLD);
   if (!ok) throw hpcgi::Agreed<hpcgi::UsageError>("corrupted " + file + ": checksum mismatch");
-  hpcgi::comm::agreed([&] { check_form_factor_values(rows.values.data(), rows.rows(), info.n, rows.row_begin, path); });
+  hpcgi::comm::agreed([&] { check_form_factor_values(rows.values.data(), rows.rows(), info.n, rows.first_row(), path); });
   if (stats) *stats = st;
   return rows;
 }

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "radiosity/dist/split.hpp"
+#include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
 
@@ -24,12 +25,15 @@ struct FileStats {
 // Collective. Every rank passes its block of rows (in rank order the blocks cover 0..n). Writes a unique temporary
 // file beside path (common/files.hpp) and, once every rank has written, rank 0 renames it to path: path is never half-written. If any rank fails, every rank
 // throws the same hpcgi::Agreed error and the temporary file is removed.
-FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const FormFactorRows& rows);
+FileStats save_form_factor_rows(const std::string& path, const Mesh& mesh, const FormFactors& rows);
 
 // Collective. This rank's block of rows of the file for mesh `expected` (in rank order the blocks cover 0..n), with
 // every check of load_form_factors: the header and size on every rank, the checksum over all ranks' bytes by the
 // chain. A refusal is the same hpcgi::Agreed<UsageError> on every rank.
-FormFactorRows load_form_factor_rows(const std::string& path, const Mesh& expected, RowBlock block,
-                                     FileStats* stats = nullptr);
+FormFactors load_form_factor_rows(const std::string& path, const Mesh& expected, RowBlock block,
+                                  FileStats* stats = nullptr);
+// The same on a file whose header every rank has read and checked once already (info: check_form_factor_file's).
+FormFactors load_form_factor_rows(const std::string& path, const FormFactorFileInfo& info, RowBlock block,
+                                  FileStats* stats = nullptr);
 
 }  // namespace radiosity::dist

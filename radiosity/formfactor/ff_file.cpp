@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -162,8 +163,19 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
 
 namespace {
 
+// The test-only hook that counts header reads (ff_file.hpp): one line "pid path" appended to the file it names.
+void count_header_read(const std::string& path) {
+  const char* log = std::getenv(kHeaderReadLogEnv);
+  if (!log || !*log) return;
+  if (std::FILE* f = std::fopen(log, "a")) {
+    std::fprintf(f, "%ld %s\n", long(getpid()), path.c_str());
+    std::fclose(f);
+  }
+}
+
 // Reads and checks the header and the size of an open file; leaves the file positioned after the header.
 FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mesh& expected) {
+  count_header_read(path);
   const std::string file = "form-factor file '" + path + "'";
   if (std::fseek(f, 0, SEEK_END) != 0) throw hpcgi::UsageError("cannot read " + file);
   const long size_or_error = std::ftell(f);
@@ -247,26 +259,41 @@ FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& e
   return info;
 }
 
-FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
+namespace {
+// The dense values of an open file f positioned after its header (info: that header, checked), checksum and values
+// checked.
+FormFactors read_dense_values(std::FILE* f, const std::string& path, const FormFactorFileInfo& info) {
   const std::string file = "form-factor file '" + path + "'";
-  hpcgi::files::require_input(path, "form-factor file");
-  File f(std::fopen(path.c_str(), "rb"));
-  if (!f) throw hpcgi::UsageError("cannot open " + file + ": " + std::strerror(errno));
-  const FormFactorFileInfo info = check_header(f.get(), path, expected);
   refuse_sparse(info, path);
   FormFactors ff;
   ff.n = info.n;
   ff.params = info.params;
+  ff.row_end = ff.n;
   const size_t values_bytes = ff.n * ff.n * sizeof(float);
   ff.values.resize(ff.n * ff.n);
   uint64_t sum = 0;
-  if (std::fread(ff.values.data(), 1, values_bytes, f.get()) != values_bytes ||
-      std::fread(&sum, sizeof sum, 1, f.get()) != 1)
+  if (std::fread(ff.values.data(), 1, values_bytes, f) != values_bytes || std::fread(&sum, sizeof sum, 1, f) != 1)
     throw hpcgi::UsageError("cannot read " + file + ": " + std::strerror(errno));
   if (sum != checksum(ff.values.data(), values_bytes))
     throw hpcgi::UsageError("corrupted " + file + ": checksum mismatch");
   check_form_factor_values(ff.values.data(), ff.n, ff.n, 0, path);
   return ff;
+}
+}  // namespace
+
+FormFactors load_form_factors(const std::string& path, const Mesh& expected) {
+  hpcgi::files::require_input(path, "form-factor file");
+  File f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
+  const FormFactorFileInfo info = check_header(f.get(), path, expected);
+  return read_dense_values(f.get(), path, info);
+}
+
+FormFactors load_form_factors(const std::string& path, const FormFactorFileInfo& info) {
+  File f(std::fopen(path.c_str(), "rb"));
+  if (!f || std::fseek(f.get(), long(kFormFactorHeaderBytes), SEEK_SET) != 0)
+    throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
+  return read_dense_values(f.get(), path, info);
 }
 
 void check_form_factor_values(const float* values, size_t rows, size_t n, size_t first_row, const std::string& path) {

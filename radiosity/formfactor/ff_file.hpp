@@ -81,6 +81,13 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
 // precision; a file for another mesh (patch count or hash differ: both are given); a truncated file (expected and
 // actual sizes in bytes); a checksum mismatch.
 FormFactors load_form_factors(const std::string& path, const Mesh& expected);
+// The same on a file whose header was read and checked once already (info: check_form_factor_file's or
+// check_any_form_factor_file's): the values and the checksum, the header not parsed again.
+FormFactors load_form_factors(const std::string& path, const FormFactorFileInfo& info);
+
+// A test-only hook: when this environment variable names a file, every parse of a form-factor file's header
+// appends one line "PID PATH" to it, so that a test can count the parses of one file per process.
+inline constexpr const char* kHeaderReadLogEnv = "HPCGI_TEST_FF_HEADER_LOG";
 
 // Form factors are fractions: a value outside [0, 1] (finite; NaN is left to the solvers' guards, which stop at
 // step 1 and say so) or a self form factor F_ii other than 0 (a planar patch does not see itself) is refused with

@@ -1,8 +1,6 @@
 #include "radiosity/formfactor/form_factors.hpp"
 
 #include <cmath>
-#include <stdexcept>
-#include <utility>
 
 #include "common/errors.hpp"
 
@@ -24,23 +22,6 @@ void validate(const HemicubeParams& p) {
                             std::to_string(p.resolution));
   if (!std::isfinite(p.threshold) || p.threshold < 0)
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0, got " + std::to_string(p.threshold));
-}
-
-FormFactorRows to_rows(FormFactors&& ff) {
-  FormFactorRows rows;
-  rows.n = ff.n;
-  rows.row_begin = 0;
-  rows.row_end = ff.n;
-  rows.values = std::move(ff.values);
-  rows.params = ff.params;
-  return rows;
-}
-
-FormFactors from_rows(FormFactorRows&& rows) {
-  if (rows.row_begin != 0 || rows.row_end != rows.n)
-    throw std::logic_error("from_rows: rows " + std::to_string(rows.row_begin) + ".." + std::to_string(rows.row_end) +
-                           " are not all of the " + std::to_string(rows.n) + " rows of F");
-  return FormFactors{rows.n, std::move(rows.values), rows.params};
 }
 
 }  // namespace radiosity

@@ -2,6 +2,7 @@
 // the solvers read.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <utility>
 #include <string>
 #include <vector>
@@ -30,27 +31,21 @@ struct HemicubeParams {
 // Throws UsageError for a resolution that is odd or out of range or a threshold that is negative or not finite.
 void validate(const HemicubeParams& p);
 
-// F_ij, dense and row-major: values[i*n + j] is the fraction of the energy leaving patch i that arrives at patch j,
-// as the radiosity equation B_i = E_i + ρ_i Σ_j F_ij B_j uses it. Row i is what patch i sees; F_ii = 0.
+// F_ij, dense and row-major, as the hemicube computes it and the file stores it: rows [row_begin, row_end) of the n
+// rows (every row, or the block one MPI rank computes, holds and writes: radiosity/dist/), row i at
+// values[(i - row_begin)*n + j], the fraction of the energy leaving patch i that arrives at patch j, as the radiosity
+// equation B_i = E_i + ρ_i Σ_j F_ij B_j uses it. Row i is what patch i sees; F_ii = 0. row_end = SIZE_MAX: every row.
+// A solve holds it as a FormFactorMatrix (solve/storage/ff_matrix.hpp), the values moved, not copied.
 struct FormFactors {
   size_t n = 0;
   std::vector<float> values;
   HemicubeParams params;
-  float operator()(size_t i, size_t j) const { return values[i * n + j]; }
+  size_t row_begin = 0, row_end = SIZE_MAX;
+  size_t first_row() const { return row_begin < n ? row_begin : n; }
+  size_t last_row() const { return row_end < n ? row_end : n; }
+  size_t rows() const { return last_row() - first_row(); }
+  bool all_rows() const { return first_row() == 0 && last_row() == n; }
+  float operator()(size_t i, size_t j) const { return values[(i - row_begin) * n + j]; }
 };
-
-// Rows [row_begin, row_end) of F: the block of rows one MPI rank computes, holds and writes (radiosity/dist/).
-struct FormFactorRows {
-  size_t n = 0;  // patches: the length of a row
-  size_t row_begin = 0, row_end = 0;
-  std::vector<float> values;  // (row_end - row_begin) × n, row-major: values[(i - row_begin)*n + j] = F_ij
-  HemicubeParams params;
-  size_t rows() const { return row_end - row_begin; }
-};
-
-// The whole matrix as the block of all its rows, and back; the values are moved, not copied. from_rows takes a
-// block of every row only (row_begin 0, row_end n): anything else is a logic error.
-FormFactorRows to_rows(FormFactors&& ff);
-FormFactors from_rows(FormFactorRows&& rows);
 
 }  // namespace radiosity

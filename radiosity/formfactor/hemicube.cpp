@@ -171,7 +171,7 @@ HemicubeProgress stderr_progress() {
   };
 }
 
-FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
+FormFactors compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
                                         size_t row_end, const HemicubeProgress& progress, double progress_interval_s) {
   validate(params);
   const size_t n = mesh.size();
@@ -179,7 +179,7 @@ FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& 
   if (row_begin > row_end || row_end > n)
     throw hpcgi::UsageError("form-factor rows " + std::to_string(row_begin) + ".." + std::to_string(row_end) +
                             " are not rows of a mesh of " + std::to_string(n) + " patches");
-  FormFactorRows ff;
+  FormFactors ff;
   ff.n = n;
   ff.row_begin = row_begin;
   ff.row_end = row_end;
@@ -237,7 +237,7 @@ FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& 
 
 FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params, const HemicubeProgress& progress,
                                  double progress_interval_s) {
-  return from_rows(compute_form_factor_rows(mesh, params, 0, mesh.size(), progress, progress_interval_s));
+  return compute_form_factor_rows(mesh, params, 0, mesh.size(), progress, progress_interval_s);
 }
 
 double hemicube_memory_bytes(size_t n, size_t rows, int resolution, int threads) {

@@ -34,9 +34,9 @@ FormFactors compute_form_factors(const Mesh& mesh, const HemicubeParams& params,
 // Rows [row_begin, row_end) of F, each exactly as compute_form_factors computes it (a row depends on nothing but
 // the mesh and the parameters), so blocks computed apart and put together give the same bits. Throws UsageError for
 // invalid parameters or a range outside the mesh.
-FormFactorRows compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
-                                        size_t row_end, const HemicubeProgress& progress = {},
-                                        double progress_interval_s = 5.0);
+FormFactors compute_form_factor_rows(const Mesh& mesh, const HemicubeParams& params, size_t row_begin,
+                                     size_t row_end, const HemicubeProgress& progress = {},
+                                     double progress_interval_s = 5.0);
 
 // An estimate of each row's hemicube cost in nanoseconds on one core, to split the rows among MPI ranks by work
 // (radiosity/dist/split.hpp): a row transforms every patch, clips and rasterises those in front of the patch's

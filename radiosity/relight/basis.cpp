@@ -8,8 +8,8 @@
 
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/exec.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity::relight {
 

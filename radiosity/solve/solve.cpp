@@ -196,7 +196,7 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
     throw hpcgi::UsageError("backend '" + b->name + "' needs every row of F, and this system holds rows " +
                             std::to_string(sys.rows_begin) + ".." + std::to_string(sys.rows_end) +
                             " (an MPI rank's share): use backend mpi");
-  if (sys.stored.n) require_storage(*b, sys.stored.storage, sys.stored.values);
+  if (sys.matrix.n) require_storage(*b, sys.matrix.storage, sys.matrix.values);
   check_config(cfg);
   if (cfg.start == Start::rrv) return b->run(sys, cfg, callback);
   System started = sys;  // the same F (not owned), another b_0

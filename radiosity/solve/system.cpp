@@ -5,7 +5,7 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
@@ -20,10 +20,12 @@ std::vector<Rgb> rrv_initial_radiosity(const std::vector<Rgb>& attribute, const 
   return b0;
 }
 
-System make_system(const Mesh& mesh, const float* F) {
+System make_system(const Mesh& mesh, const float* F) { return make_system(mesh, dense_float32_view(F, mesh.size())); }
+
+System make_system(const Mesh& mesh, const FFMatrixView& F) {
   System s;
   s.n = mesh.size();
-  s.F = F;
+  s.matrix = F;
   std::vector<Rgb> attribute;
   for (const Patch& p : mesh.patches) {
     s.emission.push_back(p.emission);
@@ -32,10 +34,6 @@ System make_system(const Mesh& mesh, const float* F) {
   }
   s.initial = rrv_initial_radiosity(attribute, s.emission);
   return s;
-}
-
-FFMatrixView system_matrix(const System& sys) {
-  return sys.stored.n ? sys.stored : dense_float32_view(sys.F, sys.n);
 }
 
 bool is_grey(const System& sys) {
@@ -47,12 +45,12 @@ bool is_grey(const System& sys) {
 
 void check_system(const System& sys) {
   if (sys.n == 0) throw hpcgi::UsageError("radiosity system: no patches");
-  if (!sys.F && !sys.stored.n) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
+  if (!sys.matrix.n || (sys.matrix.storage == FFStorage::dense && !sys.matrix.data)) throw hpcgi::UsageError("radiosity system: no form-factor matrix");
   if (sys.rows_end != SIZE_MAX && (sys.rows_begin > sys.rows_end || sys.rows_end > sys.n))
     throw hpcgi::UsageError("radiosity system: rows " + std::to_string(sys.rows_begin) + ".." +
                             std::to_string(sys.rows_end) + " of F for " + std::to_string(sys.n) + " patches");
-  if (sys.stored.n && sys.stored.n != sys.n)
-    throw hpcgi::UsageError("radiosity system: a form-factor matrix of " + std::to_string(sys.stored.n) +
+  if (sys.matrix.n != sys.n)
+    throw hpcgi::UsageError("radiosity system: a form-factor matrix of " + std::to_string(sys.matrix.n) +
                             " patches for " + std::to_string(sys.n));
   auto check = [&](const std::vector<Rgb>& v, const char* what) {
     if (v.size() != sys.n)

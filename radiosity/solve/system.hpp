@@ -12,16 +12,16 @@ namespace radiosity {
 
 struct System {
   size_t n = 0;
-  const float* F = nullptr;        // n×n row-major, F[i*n + j], F_ii = 0; not owned (it comes from the form-factor file)
-  // F in another storage (csr, 16-bit values: ff_matrix.hpp), not owned. When set (stored.n = n; its data may be
-  // null for a CSR matrix that keeps nothing) it is the system's matrix, F may be null, and only the backends
-  // that read it run it (SolveBackend::storages).
-  FFMatrixView stored;
+  // F, the form-factor matrix, as a view of the one FormFactorMatrix that holds it (or of values the caller owns):
+  // any storage (ff_matrix.hpp); dense float32 is the file's layout, F_ij at i*n + j, F_ii = 0. matrix.n = n (its
+  // data may be null for a CSR matrix that keeps nothing); only the backends that read its storage run it
+  // (SolveBackend::storages).
+  FFMatrixView matrix;
   std::vector<Rgb> emission;       // E, n entries
   std::vector<Rgb> reflectivity;   // ρ, n entries
   std::vector<Rgb> initial;        // B0, n entries (RRV: rrv_initial_radiosity)
-  // An MPI rank's system (backend mpi): F holds only rows [rows_begin, rows_end), row i at F + (i - rows_begin)·n
-  // (so does a dense `stored`; a csr or compressed one indexes every row, the others empty: ff_matrix.hpp);
+  // An MPI rank's system (backend mpi): F holds only rows [rows_begin, rows_end); a dense matrix row i at
+  // (i - rows_begin)·n, a csr or compressed one indexes every row, the others empty (ff_matrix.hpp);
   // the vectors are whole. rows_end = SIZE_MAX: F holds every row.
   size_t rows_begin = 0, rows_end = SIZE_MAX;
 };
@@ -35,10 +35,19 @@ inline bool holds_all_rows(const System& sys) {
 std::vector<Rgb> rrv_initial_radiosity(const std::vector<Rgb>& attribute, const std::vector<Rgb>& emission);
 
 // The system of a mesh whose form factors are F (n = mesh.size()), starting from RRV's B0.
+System make_system(const Mesh& mesh, const FFMatrixView& F);
+// The same on n×n dense float32 values (a view of them: they stay the caller's).
 System make_system(const Mesh& mesh, const float* F);
 
-// The system's form factors as the kernels read them: `stored` when set, else F as dense float32.
-FFMatrixView system_matrix(const System& sys);
+// The system's form factors as the kernels read them (sys.matrix).
+inline const FFMatrixView& system_matrix(const System& sys) { return sys.matrix; }
+
+// The matrix's values when it is dense float32 (the file's layout, what the dense-only backends read), else null.
+inline const float* dense_float32(const System& sys) {
+  return sys.matrix.storage == FFStorage::dense && sys.matrix.values == FFValues::float32
+             ? static_cast<const float*>(sys.matrix.data)
+             : nullptr;
+}
 
 // Whether every emission, reflectivity and starting radiosity has r = g = b: then the three channels are one solve.
 bool is_grey(const System& sys);

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
-#include "radiosity/solve/methods/sor_sweep.hpp"
+#include "radiosity/solve/host/linalg.hpp"
+#include "radiosity/solve/host/sor_sweep.hpp"
 #include "radiosity/solve/system.hpp"
 
 namespace radiosity {

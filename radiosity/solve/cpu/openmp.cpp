@@ -2,7 +2,7 @@
 // (report §3.8.2: only the linear algebra is threaded; F is shared, never copied).
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/cpu/cpu_kernels.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 
 namespace radiosity {
 

@@ -94,7 +94,7 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
   std::vector<PatchCacheLine> cache(n);
   size_t pairs = 0;
   for (size_t i = 0; i < n; ++i) {
-    const float* Fi = sys.F + i * n;
+    const float* Fi = dense_float32(sys) + i * n;
     for (size_t j = 0; j < n; ++j)
       if (Fi[j] > cfg.ff_threshold) cache[i].emplace_back(&patch[j].radiosityLast, Fi[j]);
     pairs += cache[i].size();

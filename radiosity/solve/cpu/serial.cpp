@@ -1,7 +1,7 @@
 // Backend `serial`: the shared kernels on one thread, no OpenMP runtime involved.
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/cpu/cpu_kernels.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 
 namespace radiosity {
 

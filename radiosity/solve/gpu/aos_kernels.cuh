@@ -185,12 +185,12 @@ class AosDevice {
   }
 
   AosDevice(const System& sys, size_t rows, int vectors, cudaStream_t s, DeviceClock& clock)
-      : n_(sys.n), rows_(rows), s_(s), clock_(clock), F_(std::max<size_t>(1, sys.F ? rows * sys.n : 0)),  // never 0 bytes
+      : n_(sys.n), rows_(rows), s_(s), clock_(clock), F_(std::max<size_t>(1, dense_float32(sys) ? rows * sys.n : 0)),  // never 0 bytes
         rho_(3 * sys.n), e_(3 * sys.n),
         partial_(3 * kReduceBlocks), sum_(3), host_sum_(3) {
     clock_.timed(DeviceClock::kUpload, [&] {
-      if (rows_ > 0 && sys.F)
-        CUDA_CHECK(cudaMemcpyAsync(F_.get(), sys.F, rows_ * n_ * sizeof(float), cudaMemcpyHostToDevice, s_));
+      if (rows_ > 0 && dense_float32(sys))
+        CUDA_CHECK(cudaMemcpyAsync(F_.get(), dense_float32(sys), rows_ * n_ * sizeof(float), cudaMemcpyHostToDevice, s_));
     });
     put(rho_.get(), sys.reflectivity);
     put(e_.get(), sys.emission);

@@ -109,18 +109,18 @@ class CublasSoa final : public gpu::DeviceKernels<T> {
     const double staging = std::is_same_v<T, double> ? 4.0 * std::min(nn, double(kWidenChunk)) : 0.0;
     return sizeof(T) * nn + staging + double(vectors + 3) * 3.0 * double(stride_for(n)) * sizeof(T) +
            5.0 * sizeof(T) + kBlasWorkspace +
-           (sparse(sys) ? gpu::SparseDevice<T>::bytes_needed(sys.stored, 3 * stride_for(n)) : 0.0);
+           (sparse(sys) ? gpu::SparseDevice<T>::bytes_needed(sys.matrix, 3 * stride_for(n)) : 0.0);
   }
-  static bool sparse(const System& sys) { return sys.stored.n && sys.stored.storage != FFStorage::dense; }
+  static bool sparse(const System& sys) { return sys.matrix.n && sys.matrix.storage != FFStorage::dense; }
 
   CublasSoa(const System& sys, bool fused, int vectors)
       : n_(sys.n), stride_(stride_for(sys.n)), fused_(fused), blas_(this->stream_.get(), CUBLAS_POINTER_MODE_DEVICE),
         F_(sparse(sys) ? 1 : sys.n * sys.n), rho_(3 * stride_), e_(3 * stride_), p_(3 * stride_), consts_(2), res_(3), host_res_(3) {
     if (sparse(sys)) {
-      sparse_.emplace(sys.stored, stride_, 1, 3 * stride_, s(), this->clock_);
-      matrix_bytes_ = gpu::SparseDevice<T>::matrix_bytes(sys.stored);
+      sparse_.emplace(sys.matrix, stride_, 1, 3 * stride_, s(), this->clock_);
+      matrix_bytes_ = gpu::SparseDevice<T>::matrix_bytes(sys.matrix);
     } else {
-      upload_matrix(sys.F);
+      upload_matrix(dense_float32(sys));
     }
     const T consts[2] = {1, 0};
     CUDA_CHECK(cudaMemcpyAsync(consts_.get(), consts, sizeof consts, cudaMemcpyHostToDevice, s()));
@@ -265,7 +265,7 @@ std::unique_ptr<Kernels<T>> make_cublas(const System& sys, const SolveConfig& cf
   const std::string who = gpu::who("cublas", sys, cfg);
   hpcgi::require_gpu(who);
   if (stride_for(sys.n) > size_t(INT_MAX)) throw hpcgi::UsageError(who + ": too many patches for cuBLAS's int sizes");
-  if (!CublasSoa<T>::sparse(sys) && !sys.F)
+  if (!CublasSoa<T>::sparse(sys) && !dense_float32(sys))
     throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
   hpcgi::require_device_memory(who, CublasSoa<T>::bytes_needed(sys, vectors));
   return std::make_unique<CublasSoa<T>>(sys, cfg.fused, vectors);

@@ -16,9 +16,9 @@ template <class T>
 class CudaAos final : public gpu::DeviceKernels<T> {
  public:
   CudaAos(const System& sys, int vectors) : n_(sys.n), dev_(sys, sys.n, vectors, this->stream_.get(), this->clock_) {
-    if (sys.stored.n && sys.stored.storage != FFStorage::dense)
-      sparse_.emplace(sys.stored, 1, 3, 3 * n_, this->stream_.get(), this->clock_);
-    matrix_bytes_ = sparse_ ? gpu::SparseDevice<T>::matrix_bytes(sys.stored) : 4.0 * double(n_) * double(n_);
+    if (sys.matrix.n && sys.matrix.storage != FFStorage::dense)
+      sparse_.emplace(sys.matrix, 1, 3, 3 * n_, this->stream_.get(), this->clock_);
+    matrix_bytes_ = sparse_ ? gpu::SparseDevice<T>::matrix_bytes(sys.matrix) : 4.0 * double(n_) * double(n_);
   }
 
   void upload(int v, const std::vector<Rgb>& x) override { dev_.upload(v, x); }
@@ -64,10 +64,10 @@ std::unique_ptr<Kernels<T>> make_cuda(const System& sys, const SolveConfig& cfg,
   if (cfg.fused) throw hpcgi::UsageError("fused applies to backend cublas (its product is one pass over F already)");
   const std::string who = gpu::who("cuda", sys, cfg);
   hpcgi::require_gpu(who);
-  const bool sparse = sys.stored.n && sys.stored.storage != FFStorage::dense;
-  if (!sparse && !sys.F) throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
+  const bool sparse = sys.matrix.n && sys.matrix.storage != FFStorage::dense;
+  if (!sparse && !dense_float32(sys)) throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
   hpcgi::require_device_memory(who, gpu::AosDevice<T>::bytes_needed(sys.n, sys.n, vectors, !sparse) +
-                                        (sparse ? gpu::SparseDevice<T>::bytes_needed(sys.stored, 3 * sys.n) : 0.0));
+                                        (sparse ? gpu::SparseDevice<T>::bytes_needed(sys.matrix, 3 * sys.n) : 0.0));
   return std::make_unique<CudaAos<T>>(sys, vectors);
 }
 template std::unique_ptr<Kernels<float>> make_cuda(const System&, const SolveConfig&, int);

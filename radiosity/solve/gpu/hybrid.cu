@@ -173,7 +173,7 @@ std::unique_ptr<Kernels<T>> make_hybrid(const System& sys, const SolveConfig& cf
   check_distribution(cfg.distribution);
   const std::string who = gpu::who("hybrid", sys, cfg);
   hpcgi::require_gpu(who);
-  if (!sys.F) throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
+  if (!dense_float32(sys)) throw hpcgi::UsageError(who + ": dense form factors are read as the file's float32 values");
   const size_t g = gpu_rows(sys.n, cfg.distribution);
   hpcgi::require_device_memory(who + " with " + std::to_string(g) + " rows on the GPU",
                                gpu::AosDevice<T>::bytes_needed(sys.n, g, vectors));

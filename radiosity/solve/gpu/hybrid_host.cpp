@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdint>
 
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {
 
@@ -21,7 +21,7 @@ size_t gpu_rows(size_t n, double d) {
 template <class T>
 struct HostRows<T>::Impl {
   Impl(const System& sys, size_t first_row, int vectors, int threads)
-      : n(sys.n), first(first_row), F(sys.F), ex(first_row, SIZE_MAX, threads), rho(sys.n), e(sys.n) {
+      : n(sys.n), first(first_row), F(dense_float32(sys)), ex(first_row, SIZE_MAX, threads), rho(sys.n), e(sys.n) {
     put(rho, sys.reflectivity);
     put(e, sys.emission);
     vec.reserve(vectors);

@@ -7,7 +7,7 @@
 
 #include "common/timer.hpp"
 #include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/solve.hpp"
+#include "radiosity/solve/config.hpp"
 
 namespace radiosity {
 

@@ -196,6 +196,8 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
   if (n > size_t(std::numeric_limits<int32_t>::max()))
     throw hpcgi::UsageError("form-factor matrix: " + std::to_string(n) + " patches exceed int32 column indices");
   const size_t r0 = std::min(row_begin, n), r1 = std::max(r0, std::min(row_end, n));
+  row_begin_ = r0;
+  row_end_ = r1;
   const size_t values = (r1 - r0) * n;  // F's values: rows r0..r1, row i at F + (i - r0)·n
   const double up =
       opt.values == FFValues::float16 ? half_scale_up(opt.largest >= 0 ? opt.largest : largest_abs(F, values)) : 1.0;
@@ -332,7 +334,10 @@ void FormFactorMatrix::build_runs(const float* F, const std::vector<Rgb>& reflec
 FormFactorMatrix::FormFactorMatrix(Parts&& p)
     : n_(p.n), kept_(p.kept), bridges_(p.bridges), opt_(p.opt), scale_(p.scale), f32_(std::move(p.f32)),
       u16_(std::move(p.u16)), row_start_(std::move(p.row_start)), col_(std::move(p.col)), step_(std::move(p.step)),
-      run_start_(std::move(p.run_start)), run_(std::move(p.run)) {}
+      run_start_(std::move(p.run_start)), run_(std::move(p.run)) {
+  row_begin_ = std::min(p.row_begin, n_);
+  row_end_ = std::max(row_begin_, std::min(p.row_end, n_));
+}
 
 FFMatrixView FormFactorMatrix::view() const {
   FFMatrixView v;

@@ -71,6 +71,31 @@ struct FFMatrixView {
   double scale = 1;                    // F_ij = scale · stored value (float16: 2^-k; 1 otherwise)
 };
 
+// Calls fn(k, j) for each entry k of row i of a csr, compressed or runs matrix, j its column (bridges and merged
+// zeros included: their value is 0). For the checks and the sweeps that visit a row once; the products' kernels
+// (host/csr_kernels.hpp, host/runs_kernels.hpp) are their own loops.
+template <class Fn>
+inline void for_each_entry(const FFMatrixView& F, size_t i, Fn&& fn) {
+  const size_t k0 = size_t(F.row_start[i]), k1 = size_t(F.row_start[i + 1]);
+  if (F.storage == FFStorage::csr) {
+    for (size_t k = k0; k < k1; ++k) fn(k, size_t(F.col[k]));
+    return;
+  }
+  if (F.storage == FFStorage::runs) {
+    size_t k = k0, j = 0;
+    for (int64_t r = F.run_start[i]; r < F.run_start[i + 1]; ++r) {
+      j += F.run[r].step;
+      for (size_t q = 0; q < F.run[r].length; ++q) fn(k++, j++);
+    }
+    return;
+  }
+  int64_t j = -1;
+  for (size_t k = k0; k < k1; ++k) {
+    j += F.step[k];
+    fn(k, size_t(j));
+  }
+}
+
 // The view of n×n dense float32 values (the form-factor file's).
 FFMatrixView dense_float32_view(const float* F, size_t n);
 
@@ -103,9 +128,13 @@ inline constexpr uint32_t kRunMergeGap = 4;
 inline constexpr uint32_t kRunMaxLength = 16;
 
 // What a run costs in the product, in stored values (the first cost model above: b/a = 2.3/0.3, about 8): backend mpi
-// balances a runs matrix's rows between ranks by their stored values, kRunCost a run and csr_kernels.hpp's kRowCost
+// balances a runs matrix's rows between ranks by their stored values, kRunCost a run and kRowCost (below)
 // a row (app/solve_load.cpp).
 inline constexpr size_t kRunCost = 8;
+
+// A row costs its entries and this many more (its store, its loop's start and end), in entries: what the rows are
+// balanced by between threads (host/csr_kernels.hpp) and between MPI ranks (app/solve_load.cpp).
+inline constexpr size_t kRowCost = 8;
 
 struct FFMatrixOptions {
   FFStorage storage = FFStorage::dense;
@@ -169,6 +198,7 @@ class FormFactorMatrix {
     std::vector<uint16_t> step;
     std::vector<int64_t> run_start;
     std::vector<FFRun> run;
+    size_t row_begin = 0, row_end = SIZE_MAX;  // dense: the rows f32 holds (an MPI rank's block), row i at (i - row_begin)·n
   };
   explicit FormFactorMatrix(Parts&& p);
   // Built from n×n dense float32 values (a form-factor file's): the options' storage, values and threshold, the
@@ -180,6 +210,15 @@ class FormFactorMatrix {
   FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity, const FFMatrixOptions& opt,
                    size_t row_begin = 0, size_t row_end = SIZE_MAX);
   FFMatrixView view() const;
+  // The rows it holds, [row_begin, row_end) of n: every row, or an MPI rank's block (dense: those rows' values; the
+  // sparse storages index every row and leave the others empty).
+  size_t row_begin() const { return row_begin_; }
+  size_t row_end() const { return row_end_; }
+  size_t rows() const { return row_end_ - row_begin_; }
+  // Dense float32: its values, rows() × n, to threshold in place (apply_threshold); otherwise null.
+  float* dense_float32_values() {
+    return opt_.storage == FFStorage::dense && opt_.values == FFValues::float32 ? f32_.data() : nullptr;
+  }
   size_t kept() const { return kept_; }  // values kept (sparse: bridges, merged zeros not counted) or non-zero (dense)
   size_t bridges() const { return bridges_; }  // compressed's bridges, runs' runs of length 0
   RunCounts runs() const;                      // runs: its runs and stored values; otherwise 0
@@ -191,7 +230,7 @@ class FormFactorMatrix {
   void build_runs(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1, Store& store,
                   Allocate& allocate);
 
-  size_t n_, kept_ = 0, bridges_ = 0;
+  size_t n_, kept_ = 0, bridges_ = 0, row_begin_ = 0, row_end_ = 0;
   FFMatrixOptions opt_;
   double scale_ = 1;
   std::vector<float> f32_;

@@ -73,11 +73,15 @@ void save_form_factor_matrix(const std::string& path, const Mesh& mesh, const He
 }
 
 FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& expected, HemicubeParams* params) {
-  const std::string file = "form-factor file '" + hpcgi::one_line(path) + "'";
   const FormFactorFileInfo info = check_any_form_factor_file(path, expected);
+  if (params) *params = info.params;
+  return load_form_factor_matrix(path, info);
+}
+
+FormFactorMatrix load_form_factor_matrix(const std::string& path, const FormFactorFileInfo& info) {
+  const std::string file = "form-factor file '" + hpcgi::one_line(path) + "'";
   if (info.version == 1)
     throw hpcgi::UsageError(file + " holds dense float32 form factors (version 1), not a sparse matrix");
-  if (params) *params = info.params;
   FormFactorMatrix::Parts p;
   p.n = info.n;
   p.opt.storage = parse_ff_storage(info.storage);

@@ -12,6 +12,7 @@
 #pragma once
 #include <string>
 
+#include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
@@ -30,5 +31,7 @@ void save_form_factor_matrix(const std::string& path, const Mesh& mesh, const He
 // checksum; a value outside [0, 1] or a stored F_ii other than 0), and a row start, column, step or run that does
 // not describe n rows of increasing columns below n, with one line naming the file. params: the file's hemicube.
 FormFactorMatrix load_form_factor_matrix(const std::string& path, const Mesh& expected, HemicubeParams* params);
+// The same on a version 2 file whose header was read and checked once already (info: check_any_form_factor_file's).
+FormFactorMatrix load_form_factor_matrix(const std::string& path, const FormFactorFileInfo& info);
 
 }  // namespace radiosity

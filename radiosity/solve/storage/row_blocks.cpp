@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity {
 namespace {

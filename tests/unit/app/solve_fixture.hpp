@@ -9,6 +9,7 @@
 
 #include "radiosity/app/commands.hpp"
 #include "radiosity/app/solve_run.hpp"
+#include "radiosity/app/solve_verify.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
@@ -29,17 +30,24 @@ class SolvePhases : public ::testing::Test {
   }
   std::string file(const std::string& name) const { return (tmp.path() / name).string(); }
 
-  // The phases up to the solve (plan, load, solve) on args.
+  // The phases up to the solve (plan, load with the error reference's phase between its steps, solve) on args, in
+  // run_solve's order.
   struct Solved {
     radiosity::app::SolvePlan p;
-    radiosity::app::LoadedSolve L;
+    radiosity::app::Problem L;
+    radiosity::app::References R;
     radiosity::app::SolveRun run;
   };
   std::unique_ptr<Solved> solved() const {
+    using namespace radiosity::app;
     auto s = std::make_unique<Solved>();
-    s->p = radiosity::app::plan_solve(args);
-    radiosity::app::load_solve(args, s->p, s->L);
-    s->run = radiosity::app::run_solver(args, s->p, s->L);
+    s->p = plan_solve(args);
+    s->L = load_mesh(args, s->p);
+    solve_reference_at(ReferencePoint::before_form_factors, args, s->L, s->R);
+    read_form_factors(args, s->p, s->L);
+    solve_reference_at(ReferencePoint::before_rounding, args, s->L, s->R);
+    build_matrix(args, s->p, s->L);
+    s->run = run_solver(args, s->p, s->L);
     return s;
   }
 

@@ -1,5 +1,5 @@
 // The phases of bin/radiosity formfactors (radiosity/app/formfactors_phases.hpp), one process, on two facing
-// squares; and the FormFactors <-> FormFactorRows conversion they use.
+// squares; and the row range of the form factors they compute and of the matrix a solve holds.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -10,6 +10,7 @@
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/scene/analytic.hpp"
+#include "radiosity/solve/storage/ff_matrix.hpp"
 
 using namespace radiosity;
 using namespace radiosity::app;
@@ -37,24 +38,32 @@ std::string temp_path(const char* name) {
 
 }  // namespace
 
-TEST(FormFactorRowsConversion, RoundTripMovesEveryValue) {
+TEST(FormFactorRowRange, EveryRowByDefaultABlockWhenSet) {
   FormFactors ff{2, {0, 0.25f, 0.5f, 0}, HemicubeParams{}};
-  ff.params.resolution = 8;
-  FormFactorRows rows = to_rows(std::move(ff));
-  EXPECT_EQ(rows.n, 2u);
-  EXPECT_EQ(rows.row_begin, 0u);
-  EXPECT_EQ(rows.row_end, 2u);
-  EXPECT_EQ(rows.params.resolution, 8);
-  const FormFactors back = from_rows(std::move(rows));
-  EXPECT_EQ(back.values, (std::vector<float>{0, 0.25f, 0.5f, 0}));
-  EXPECT_EQ(back(1, 0), 0.5f);
+  EXPECT_TRUE(ff.all_rows());
+  EXPECT_EQ(ff.rows(), 2u);
+  EXPECT_EQ(ff(1, 0), 0.5f);
+  FormFactors block{4, std::vector<float>(8, 0.1f), HemicubeParams{}, 1, 3};
+  block.values[4] = 0.75f;  // row 2, column 0
+  EXPECT_FALSE(block.all_rows());
+  EXPECT_EQ(block.rows(), 2u);
+  EXPECT_EQ(block(2, 0), 0.75f);
 }
 
-TEST(FormFactorRowsConversion, PartOfTheRowsIsNoMatrix) {
-  FormFactorRows rows;
-  rows.n = 4, rows.row_begin = 1, rows.row_end = 3;
-  rows.values.assign(8, 0.1f);
-  EXPECT_THROW(from_rows(std::move(rows)), std::logic_error);
+TEST(FormFactorRowRange, TheMatrixKeepsTheRowsItHolds) {
+  FormFactorMatrix::Parts parts;
+  parts.n = 4;
+  parts.row_begin = 1;
+  parts.row_end = 3;
+  parts.f32.assign(8, 0.1f);
+  FormFactorMatrix m(std::move(parts));
+  EXPECT_EQ(m.row_begin(), 1u);
+  EXPECT_EQ(m.row_end(), 3u);
+  EXPECT_EQ(m.rows(), 2u);
+  ASSERT_NE(m.dense_float32_values(), nullptr);
+  EXPECT_EQ(m.dense_float32_values()[7], 0.1f);
+  FormFactorMatrix whole(std::vector<float>(16, 0).data(), 4, std::vector<Rgb>(4, Rgb{1, 1, 1}), FFMatrixOptions{});
+  EXPECT_EQ(whole.rows(), 4u);
 }
 
 TEST(FormFactorsPlan, RefusesA16BitDenseFileAndBadHemicube) {

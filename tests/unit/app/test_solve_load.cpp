@@ -1,8 +1,10 @@
-// The load (solve_load.cpp): the mesh, the form factors in one block-of-rows type, the run's matrix, the memory.
+// The load (solve_load.cpp): the mesh, the form factors in the one FormFactorMatrix, the run's matrix, the memory;
+// it returns a Problem, and the error reference is a phase of its own between its steps (solve_verify.hpp).
 #include <string>
 
 #include "common/errors.hpp"
 #include "radiosity/app/solve_load.hpp"
+#include "radiosity/app/solve_verify.hpp"
 #include "tests/unit/app/solve_fixture.hpp"
 
 using namespace radiosity;
@@ -10,17 +12,17 @@ using namespace radiosity::app;
 using solve_phases::SolvePhases;
 
 TEST_F(SolvePhases, LoadsTheDenseFileAsItIs) {
-  LoadedSolve L;
-  load_solve(args, plan_solve(args), L);
+  const Problem L = load_solve(args, plan_solve(args));
   EXPECT_EQ(L.n, 4u);
   EXPECT_EQ(L.patches, "4 patches");
   EXPECT_FALSE(L.sparse_file);
-  EXPECT_EQ(L.ff.rows(), 4u);
-  EXPECT_EQ(L.ff.values.size(), 16u);
-  EXPECT_EQ(L.sys.F, L.ff.values.data());
-  EXPECT_EQ(L.ff.params.resolution, 32);
+  ASSERT_NE(L.matrix, nullptr);  // the one matrix: the file's values, every row, dense float32
+  EXPECT_EQ(L.matrix->rows(), 4u);
+  EXPECT_EQ(L.matrix->view().storage, FFStorage::dense);
+  EXPECT_EQ(L.sys.matrix.data, L.matrix->view().data);
+  EXPECT_NE(dense_float32(L.sys), nullptr);
+  EXPECT_EQ(L.params.resolution, 32);
   EXPECT_TRUE(L.same_matrix);  // float32, nothing dropped: the reference is solved after the run, on this matrix
-  EXPECT_FALSE(L.have_ref);
   EXPECT_EQ(L.skipped_rows, 2u);  // the emitting squares reflect nothing
   EXPECT_EQ(L.matrix_storage_bytes, 4.0 * 16);
 }
@@ -28,31 +30,55 @@ TEST_F(SolvePhases, LoadsTheDenseFileAsItIs) {
 TEST_F(SolvePhases, RoundedValuesTakeTheirReferenceBeforeRounding) {
   args.storage = "dense";
   args.ff_precision = "float16";
-  LoadedSolve L;
-  load_solve(args, plan_solve(args), L);
+  const SolvePlan p = plan_solve(args);
+  Problem L = load_mesh(args, p);
+  References R;
+  solve_reference_at(ReferencePoint::before_form_factors, args, L, R);
+  EXPECT_FALSE(R.have);  // no --reference-ff
+  read_form_factors(args, p, L);
+  EXPECT_FALSE(L.same_matrix);
+  EXPECT_NE(dense_float32(L.sys), nullptr);  // the file's values, not yet rounded
+  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
+  ASSERT_TRUE(R.have);
+  EXPECT_TRUE(R.ref.converged);
+  EXPECT_EQ(R.ref.B.size(), 4u);
+  build_matrix(args, p, L);
   EXPECT_EQ(L.storage, FFStorage::dense);
   ASSERT_NE(L.matrix, nullptr);
-  EXPECT_EQ(L.sys.F, nullptr);
-  EXPECT_EQ(L.sys.stored.values, FFValues::float16);
-  EXPECT_TRUE(L.ff.values.empty());  // the dense values were given back
-  EXPECT_FALSE(L.same_matrix);
-  ASSERT_TRUE(L.have_ref);
-  EXPECT_TRUE(L.ref.converged);
-  EXPECT_EQ(L.ref.B.size(), 4u);
+  EXPECT_EQ(dense_float32(L.sys), nullptr);  // the run's matrix replaced the file's dense values
+  EXPECT_EQ(L.sys.matrix.values, FFValues::float16);
+  EXPECT_EQ(L.matrix->dense_float32_values(), nullptr);
+}
+
+TEST_F(SolvePhases, TheFileMatrixTakesItsReferenceAfterTheRun) {
+  const SolvePlan p = plan_solve(args);
+  Problem L = load_mesh(args, p);
+  References R;
+  read_form_factors(args, p, L);
+  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
+  EXPECT_FALSE(R.have);  // same_matrix: it waits for the run
+  solve_reference_at(ReferencePoint::after_run, args, L, R);
+  EXPECT_TRUE(R.have);
 }
 
 TEST_F(SolvePhases, NoReferenceWithoutVerify) {
   args.storage = "csr";
+  args.ff_precision = "float16";
   args.verify = false;
-  LoadedSolve L;
-  load_solve(args, plan_solve(args), L);
+  const SolvePlan p = plan_solve(args);
+  Problem L = load_mesh(args, p);
+  References R;
+  read_form_factors(args, p, L);
+  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
+  build_matrix(args, p, L);
   EXPECT_EQ(L.storage, FFStorage::csr);
-  EXPECT_FALSE(L.have_ref);
+  EXPECT_FALSE(R.have);
 }
 
 TEST_F(SolvePhases, MemoryLimitRefusesBeforeLoading) {
   args.max_memory_per_rank = "1K";
-  LoadedSolve L;
-  EXPECT_THROW(load_solve(args, plan_solve(args), L), hpcgi::UsageError);
-  EXPECT_TRUE(L.ff.values.empty());
+  const SolvePlan p = plan_solve(args);
+  Problem L = load_mesh(args, p);
+  EXPECT_THROW(read_form_factors(args, p, L), hpcgi::UsageError);
+  EXPECT_EQ(L.matrix, nullptr);  // nothing read
 }

@@ -1,5 +1,6 @@
 // The report (solve_report.cpp): the record's fields as analysis/ reads them.
 #include <string>
+#include <utility>
 
 #include "radiosity/app/solve_report.hpp"
 #include "tests/unit/app/solve_fixture.hpp"
@@ -14,7 +15,7 @@ class SolveRecord : public SolvePhases {
  protected:
   nlohmann::json record() {
     const auto s = solved();
-    const Checked c = verify_solve(args, s->p, s->L, s->run.res);
+    const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
     return solve_record(SolveReport{args, s->p, s->L, s->run, c, 1.5});
   }
 };

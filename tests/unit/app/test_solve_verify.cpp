@@ -1,5 +1,6 @@
 // The verification (solve_verify.cpp): the float64 check, the error reference and the outcome of a run.
 #include <string>
+#include <utility>
 
 #include "radiosity/app/solve_run.hpp"
 #include "radiosity/app/solve_verify.hpp"
@@ -12,26 +13,24 @@ using solve_phases::SolvePhases;
 TEST_F(SolvePhases, ConvergedRunAgreesWithItsReference) {
   args.cfg.tol = 1e-8;
   const auto s = solved();
-  LoadedSolve& L = s->L;
-  const Checked c = verify_solve(args, s->p, L, s->run.res);
+  const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
   ASSERT_TRUE(c.made);
   EXPECT_TRUE(c.v.agreed);
   EXPECT_LE(c.v.max_rel_diff, c.v.bound);
   EXPECT_NEAR(c.v.bound, 1e-5 + 20 * 1e-8, 1e-12);
   EXPECT_EQ(c.outcome.status, hpcgi::kExitOk);
-  EXPECT_TRUE(L.ref.converged);
-  EXPECT_EQ(L.ref.of, args.ff + " (4 patches)");  // the run's own matrix
+  EXPECT_TRUE(c.ref.converged);
+  EXPECT_EQ(c.ref.of, args.ff + " (4 patches)");  // the run's own matrix
   EXPECT_LT(c.error, 1e-5);
 }
 
 TEST_F(SolvePhases, NoVerifyMakesNoCheck) {
   args.verify = false;
   const auto s = solved();
-  LoadedSolve& L = s->L;
-  const Checked c = verify_solve(args, s->p, L, s->run.res);
+  EXPECT_FALSE(s->R.have);
+  const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
   EXPECT_FALSE(c.made);
-  EXPECT_FALSE(L.have_ref);
-  EXPECT_EQ(L.ref.B.size(), 0u);
+  EXPECT_EQ(c.ref.B.size(), 0u);
   EXPECT_EQ(c.outcome.status, hpcgi::kExitOk);
 }
 

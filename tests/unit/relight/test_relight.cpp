@@ -16,9 +16,9 @@
 #include "radiosity/relight/basis.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
-#include "radiosity/solve/cpu/exec.hpp"
+#include "radiosity/solve/host/exec.hpp"
 #include "tests/unit/relight/relight_test_util.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 #include "radiosity/solve/solve.hpp"
 
 using namespace radiosity;

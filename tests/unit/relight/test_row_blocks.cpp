@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/cpu/exec.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/exec.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 #include "radiosity/solve/storage/row_blocks.hpp"
 #include "tests/unit/relight/relight_test_util.hpp"
 

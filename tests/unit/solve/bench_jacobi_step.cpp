@@ -41,7 +41,7 @@ Bench make_bench() {
     }
   }
   b.sys.n = kN;
-  b.sys.F = b.F.data();
+  b.sys.matrix = dense_float32_view(b.F.data(), b.sys.n);
   b.sys.emission.assign(kN, Rgb{0, 0, 0});
   for (size_t i = 0; i < kN; i += 10) b.sys.emission[i] = {1, 0.8, 0.6};
   b.sys.reflectivity.assign(kN, Rgb{0.7, 0.6, 0.5});

@@ -22,7 +22,7 @@ struct Problem {
   Problem() = default;
   Problem(const Problem&) = delete;
   Problem& operator=(const Problem&) = delete;
-  Problem(Problem&& o) noexcept : F(std::move(o.F)), sys(std::move(o.sys)) { sys.F = F.data(); }
+  Problem(Problem&& o) noexcept : F(std::move(o.F)), sys(std::move(o.sys)) { sys.matrix = radiosity::dense_float32_view(F.data(), sys.n); }
 };
 
 // Random F >= 0 with F_ii = 0, scaled so that the largest row sum and the largest column sum are both
@@ -48,7 +48,7 @@ inline Problem random_problem(size_t n, unsigned seed, double rho_lo = 0.0, doub
   for (size_t k = 0; k < n * n; ++k) p.F[k] = float(F[k] * max_sum * (1 - 1e-6) / biggest);
   std::vector<Rgb> attribute(n);
   p.sys.n = n;
-  p.sys.F = p.F.data();
+  p.sys.matrix = radiosity::dense_float32_view(p.F.data(), p.sys.n);
   p.sys.emission.resize(n);
   p.sys.reflectivity.resize(n);
   for (size_t i = 0; i < n; ++i) {
@@ -70,7 +70,7 @@ inline Problem closed_problem(size_t n, const std::vector<Rgb>& rho, const std::
   p.F.assign(n * n, float(1.0 / double(n - 1)));
   for (size_t i = 0; i < n; ++i) p.F[i * n + i] = 0;
   p.sys.n = n;
-  p.sys.F = p.F.data();
+  p.sys.matrix = radiosity::dense_float32_view(p.F.data(), p.sys.n);
   p.sys.reflectivity = rho;
   p.sys.emission = E;
   p.sys.initial = E;
@@ -85,7 +85,7 @@ inline std::vector<Rgb> direct_solve(const System& s) {
     std::vector<double> A(n * n), b(n);
     for (size_t i = 0; i < n; ++i) {
       for (size_t j = 0; j < n; ++j)
-        A[i * n + j] = (i == j ? 1.0 : 0.0) - s.reflectivity[i][c] * double(s.F[i * n + j]);
+        A[i * n + j] = (i == j ? 1.0 : 0.0) - s.reflectivity[i][c] * double(radiosity::dense_float32(s)[i * n + j]);
       b[i] = s.emission[i][c];
     }
     for (size_t k = 0; k < n; ++k) {
@@ -135,7 +135,7 @@ inline double norm2_bound(const System& s) {
     for (size_t i = 0; i < s.n; ++i) {
       double row = 0;
       for (size_t j = 0; j < s.n; ++j) {
-        const double m = s.reflectivity[i][c] * s.F[i * s.n + j];
+        const double m = s.reflectivity[i][c] * radiosity::dense_float32(s)[i * s.n + j];
         row += m;
         col[j] += m;
       }

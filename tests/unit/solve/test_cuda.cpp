@@ -277,7 +277,7 @@ TEST(CudaBackends, FormFactorsThatDoNotFitAreRefusedBeforeAllocating) {
   std::vector<float> F(8, 0.0f);
   System s;
   s.n = n;
-  s.F = F.data();
+  s.matrix = dense_float32_view(F.data(), s.n);
   s.emission.assign(n, Rgb{1, 1, 1});
   s.reflectivity.assign(n, Rgb{0.5, 0.5, 0.5});
   s.initial = s.emission;
@@ -361,8 +361,7 @@ TEST(CudaSparse, SparseStoragesGiveSerialsAnswer) {
     o.values = st.values;
     const FormFactorMatrix m(p.F.data(), p.sys.n, p.sys.reflectivity, o);
     System sys = p.sys;
-    sys.F = nullptr;
-    sys.stored = m.view();
+    sys.matrix = m.view();
     for (const char* precision : {"float", "double"}) {
       SolveConfig ref = serial_double("jacobi", 30);
       ref.precision = parse_precision(precision);
@@ -397,8 +396,7 @@ TEST(CudaSparse, StoragesTheGpuBackendsDoNotReadAreRefused) {
     o.values = storage == FFStorage::dense ? FFValues::float16 : FFValues::float32;
     const FormFactorMatrix m(p.F.data(), p.sys.n, p.sys.reflectivity, o);
     System sys = p.sys;
-    sys.F = nullptr;
-    sys.stored = m.view();
+    sys.matrix = m.view();
     SolveConfig c;
     c.backend = backend;
     c.layout = std::string(backend) == "cublas" ? Layout::soa : Layout::aos;
@@ -419,7 +417,7 @@ TEST(CudaRefusals, EachGpuFactoryRefusesASystemWithoutF) {
   SKIP_WITHOUT_GPU();
 #ifdef HAVE_CUDA
   System sys = random_problem(10, 99).sys;
-  sys.F = nullptr;
+  sys.matrix.data = nullptr;  // a dense matrix without its values
   for (const Gpu& g : every_gpu_config()) {
     SCOPED_TRACE(g.label);
     const SolveConfig c = config(g, "jacobi", "float", 4);

@@ -30,7 +30,7 @@ std::vector<Rgb> sweeps_in_patch_order(const System& s, long sweeps, double omeg
     for (size_t i = 0; i < s.n; ++i)
       for (int c = 0; c < 3; ++c) {
         double sum = 0;
-        for (size_t j = 0; j < s.n; ++j) sum += double(s.F[i * s.n + j]) * b[j][c];
+        for (size_t j = 0; j < s.n; ++j) sum += double(dense_float32(s)[i * s.n + j]) * b[j][c];
         b[i][c] = (1 - omega) * b[i][c] + omega * (s.emission[i][c] + s.reflectivity[i][c] * sum);
       }
   return b;

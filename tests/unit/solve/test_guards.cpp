@@ -135,7 +135,7 @@ TEST(Guards, TransientGrowthIsNotDivergence) {
     p.F[i] = 0.0099f;
   }
   p.sys.n = n;
-  p.sys.F = p.F.data();
+  p.sys.matrix = dense_float32_view(p.F.data(), p.sys.n);
   p.sys.reflectivity.assign(n, Rgb{0.99, 0.99, 0.99});
   p.sys.emission.assign(n, Rgb{0, 0, 0});
   p.sys.emission[0] = {1, 1, 1};
@@ -176,7 +176,7 @@ TEST(Guards, BicgstabOmegaBreakdown) {
   std::vector<float> F = {0, 2, 0, 0};
   System s;
   s.n = 2;
-  s.F = F.data();
+  s.matrix = dense_float32_view(F.data(), s.n);
   s.emission = {{1, -1, 1}, {0, 1, 0}};
   s.reflectivity = {{1, 1, 1}, {1, 1, 1}};
   s.initial = {{0, 0, 0}, {0, 0, 0}};
@@ -194,7 +194,7 @@ TEST(Guards, BicgstabRhoBreakdown) {
   std::vector<float> F = {0, 0.5f, 0.5f, 0.5f, 0, 1, 1, 0, 0};
   System s;
   s.n = 3;
-  s.F = F.data();
+  s.matrix = dense_float32_view(F.data(), s.n);
   s.emission = {{1, 1, 1}, {1, 0, -1}, {0, 0, -1}};
   s.reflectivity.assign(3, Rgb{1, 1, 1});
   s.initial.assign(3, Rgb{0, 0, 0});

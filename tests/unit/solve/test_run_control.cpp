@@ -117,7 +117,7 @@ TEST(RunControl, BicgstabReportsBreakdown) {
   std::vector<float> F = {0, 2, 0, 0};
   System s;
   s.n = 2;
-  s.F = F.data();
+  s.matrix = dense_float32_view(F.data(), s.n);
   s.emission = {{1, 1, 1}, {1, 1, 1}};
   s.reflectivity = {{1, 1, 1}, {1, 1, 1}};
   s.initial = {{0, 0, 0}, {0, 0, 0}};
@@ -196,7 +196,7 @@ TEST(RunControl, BadSystemsAreRefused) {
   System empty;
   EXPECT_THROW(solve(empty, config("serial", "jacobi", 1)), hpcgi::UsageError);
   Problem q = random_problem(10, 63);
-  q.sys.F = nullptr;
+  q.sys.matrix = FFMatrixView{};
   EXPECT_THROW(solve(q.sys, config("serial", "jacobi", 1)), hpcgi::UsageError);
 }
 

@@ -15,11 +15,11 @@
 #include "common/errors.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/scene/analytic.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/ff_matrix_file.hpp"
 #include "radiosity/solve/solve.hpp"
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 #include "configs.hpp"
 #include "reference.hpp"
 
@@ -61,8 +61,7 @@ FormFactorMatrix stored(const Problem& p, FFStorage storage, FFValues values, ui
 
 System system_of(const Problem& p, const FormFactorMatrix& m) {
   System s = p.sys;
-  s.F = nullptr;
-  s.stored = m.view();
+  s.matrix = m.view();
   return s;
 }
 

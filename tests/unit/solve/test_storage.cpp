@@ -36,8 +36,7 @@ SolveConfig config(const std::string& backend, const std::string& layout, const 
 // The same system with its F held as `opt` says (the matrix must outlive the system).
 System stored_as(const Problem& p, const FormFactorMatrix& m) {
   System s = p.sys;
-  s.F = nullptr;
-  s.stored = m.view();
+  s.matrix = m.view();
   return s;
 }
 

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
-#include "radiosity/solve/cpu/row_block_kernels.hpp"
+#include "radiosity/solve/host/csr_kernels.hpp"
+#include "radiosity/solve/host/row_block_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"

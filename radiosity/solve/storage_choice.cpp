@@ -1,4 +1,4 @@
-#include "radiosity/solve/storage/storage_choice.hpp"
+#include "radiosity/solve/storage_choice.hpp"
 
 #include <algorithm>
 #include <stdexcept>

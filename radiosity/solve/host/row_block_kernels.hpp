@@ -23,7 +23,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/row_blocks.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"

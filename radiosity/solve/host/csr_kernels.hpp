@@ -22,7 +22,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "radiosity/solve/cpu/runs_kernels.hpp"
+#include "radiosity/solve/host/runs_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
@@ -54,39 +54,10 @@ struct Step16Cols {
   Cursor row() const { return {step}; }
 };
 
-// Calls fn(k, j) for each entry k of row i of a csr, compressed or runs matrix, j its column (bridges and merged
-// zeros included: their value is 0). For the checks and the sweeps that visit a row once; the products' kernels
-// (below, runs_kernels.hpp) are their own loops.
-template <class Fn>
-inline void for_each_entry(const FFMatrixView& F, size_t i, Fn&& fn) {
-  const size_t k0 = size_t(F.row_start[i]), k1 = size_t(F.row_start[i + 1]);
-  if (F.storage == FFStorage::csr) {
-    for (size_t k = k0; k < k1; ++k) fn(k, size_t(F.col[k]));
-    return;
-  }
-  if (F.storage == FFStorage::runs) {
-    size_t k = k0, j = 0;
-    for (int64_t r = F.run_start[i]; r < F.run_start[i + 1]; ++r) {
-      j += F.run[r].step;
-      for (size_t q = 0; q < F.run[r].length; ++q) fn(k++, j++);
-    }
-    return;
-  }
-  int64_t j = -1;
-  for (size_t k = k0; k < k1; ++k) {
-    j += F.step[k];
-    fn(k, size_t(j));
-  }
-}
-
 // How far ahead of an entry its value and column are asked for (AVX-512 product): on room3 (R = 256, csr float32,
 // 2 threads) the product took 5.5 ms without, 3.2 ms at 2 KiB, 2.7-2.9 ms at 4-8 KiB ahead (the hardware's own
 // prefetch alone keeps too few lines of the two streams in flight).
 inline constexpr size_t kSparsePrefetchBytes = 4096;
-
-// A row costs its entries and this many more (its store, its loop's start and end), in entries: what the rows are
-// balanced by between threads.
-inline constexpr size_t kRowCost = 8;
 
 // Thread t's rows of [r0, r1) out of nt, by entries: the first row of block t is where the cost
 // (row_start[i] - row_start[r0]) + kRowCost·(i - r0) reaches t/nt of the whole, moved up to a multiple of kRowAlign

@@ -18,10 +18,10 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/cpu/csr_kernels.hpp"
+#include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/layout.hpp"
-#include "radiosity/solve/cpu/linalg.hpp"
+#include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {
 
