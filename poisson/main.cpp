@@ -24,17 +24,27 @@
 namespace {
 
 struct Args : hpcgi::record::Options {
-  poisson::Config cfg;
-  std::string variant;  // empty: the backend's default (poisson::default_variant)
+  poisson::Config cfg;  // parsed once from the strings below (config_of)
+  std::string backend = "serial", variant, precond = "none", method = "cg", halo = "nonblocking";
+  std::string precision = "double";  // variant empty: the backend's default (poisson::default_variant)
   double tol = 1e-6;
   long max_iter = 0;
   long steps = 0;  // > 0: exactly this many iterations, no tolerance (a benchmark's time per iteration)
-  std::string precision = "double";
   std::string solution_path;
-  bool check_symmetry = false;
 };
 
-long default_max_iter(long n) { return std::max(1000L, 4 * n); }
+// The options' strings parsed once into the configuration's enums (CLI11 checked all but the backend's name).
+poisson::Config config_of(const Args& a) {
+  poisson::Config c = a.cfg;
+  c.backend = poisson::parse_backend(a.backend);
+  c.precond = poisson::parse_precond(a.precond);
+  c.method = poisson::parse_method(a.method);
+  c.halo = poisson::parse_halo(a.halo);
+  c.precision = poisson::parse_precision(a.precision);
+  c.variant = a.variant.empty() ? poisson::default_variant(c.backend, c.precision, c.precond, c.method)
+                                : poisson::parse_variant(a.variant);
+  return c;
+}
 
 // Writes the N×N solution as raw little-endian float64, row j (y) after row j-1, through a temporary file and
 // rename, so a killed run leaves no half-written file.
@@ -47,8 +57,8 @@ void write_solution(const std::string& path, const std::vector<double>& x) {
 // The exit status of a run (common/errors.hpp): 0 converged or the fixed steps done, 3 broken down, 4 stopped at
 // max_iter.
 hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter) {
-  if (r.status == "breakdown") return {hpcgi::kExitNumerical, r.breakdown};
-  if (r.status == "max_iter") {
+  if (r.status == poisson::Status::breakdown) return {hpcgi::kExitNumerical, r.breakdown};
+  if (r.status == poisson::Status::max_iter) {
     char why[160];
     std::snprintf(why, sizeof why, "relative residual %.3e after %ld iterations (--max-iter %ld), above --tol %.1e",
                   r.rel_residual, r.iterations, max_iter, tol);
@@ -76,9 +86,9 @@ int solve(const Args& a) {
   const bool root = k->is_root();
   auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
   // Before the solve: the check overwrites r and z, which the solve's init resets.
-  const double asymmetry = a.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
+  const double asymmetry = a.cfg.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
   const bool fixed = a.steps > 0;
-  const long max_iter = fixed ? a.steps : a.max_iter > 0 ? a.max_iter : default_max_iter(a.cfg.n);
+  const long max_iter = fixed ? a.steps : a.max_iter > 0 ? a.max_iter : poisson::kDefaultMaxIter.of(a.cfg.n);
   const double tol = fixed ? 0.0 : a.tol;  // fixed steps: only an exact zero residual stops them early
 
   hpcgi::Timer since_print;
@@ -89,7 +99,7 @@ int solve(const Args& a) {
     }
   };
   poisson::CgResult r = poisson::run_config(*k, a.cfg, tol, max_iter, progress);
-  if (fixed && r.status == "max_iter") r.status = "steps_done";
+  if (fixed && r.status == poisson::Status::max_iter) r.status = poisson::Status::steps_done;
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   const auto info = k->info();
   const hpcgi::Outcome outcome = outcome_of(r, a.tol, max_iter);
@@ -98,23 +108,23 @@ int solve(const Args& a) {
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
   const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
   const double per_iter = r.iterations > 0 ? r.solve_s / r.iterations : 0.0;
-  const bool fmg = a.cfg.method == "fmg";
+  const bool fmg = a.cfg.method == poisson::Method::fmg;
   const std::vector<double> fmg_levels = fmg ? poisson::fmg_vectors_per_level(a.cfg.n) : std::vector<double>();
   const double solve_bytes = bytes_moved(fmg_levels, r.iterations, bytes_per_iter, sizeof(T) * n2);
   const double gbps = r.solve_s > 0 ? solve_bytes / r.solve_s / 1e9 : 0.0;
   const double dofs = r.solve_s > 0 ? n2 / r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
 
   nlohmann::json rec = hpcgi::record::make("poisson");
-  rec["params"] = {{"n", a.cfg.n},         {"backend", a.cfg.backend}, {"variant", a.cfg.variant},
+  rec["params"] = {{"n", a.cfg.n},         {"backend", to_string(a.cfg.backend)}, {"variant", to_string(a.cfg.variant)},
                    {"precision", a.precision},
                    {"tol", fixed ? nlohmann::json() : nlohmann::json(a.tol)},
                    {"steps", a.steps},     {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
                    {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
-  rec["params"]["precond"] = a.cfg.precond;
-  rec["params"]["method"] = a.cfg.method;
-  if (a.cfg.backend == "mpi") rec["params"]["halo"] = a.cfg.halo;
-  rec["result"] = {{"status", r.status},
-                   {"converged", r.status == "converged"},
+  rec["params"]["precond"] = to_string(a.cfg.precond);
+  rec["params"]["method"] = to_string(a.cfg.method);
+  if (a.cfg.backend == poisson::Backend::mpi) rec["params"]["halo"] = to_string(a.cfg.halo);
+  rec["result"] = {{"status", to_string(r.status)},
+                   {"converged", r.status == poisson::Status::converged},
                    {"iterations", r.iterations},
                    {"rel_residual", r.rel_residual},
                    {"true_rel_residual", r.true_rel_residual},
@@ -125,7 +135,7 @@ int solve(const Args& a) {
   hpcgi::record::set_outcome(rec, outcome);
   const std::vector<long> sizes = a.cfg.multigrid() && pre ? pre->mg_sizes() : std::vector<long>();
   if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
-  if (a.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
+  if (a.cfg.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
   rec["times_s"] = {{"setup", alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", per_iter},
                     {"check", r.check_s},          {"total", total.seconds()}};
   rec["perf"] = {{"vectors_per_iteration", k->vectors_per_iteration()},
@@ -133,27 +143,27 @@ int solve(const Args& a) {
                  {"bandwidth_GBps", gbps},
                  {"solve_bytes", solve_bytes},
                  {"dof_per_s", dofs},
-                 {"timer", a.cfg.backend.rfind("cu", 0) == 0 ? "host wall clock, device synchronised" : "host wall clock"}};
+                 {"timer", poisson::backend_entry(a.cfg.backend).gpu ? "host wall clock, device synchronised" : "host wall clock"}};
   if (fmg) rec["perf"]["fmg_vectors_per_level"] = fmg_levels;
   rec["backend_info"] = info;
 
   if (!a.quiet) {
     std::printf("poisson: N=%ld backend=%s method=%s variant=%s precond=%s precision=%s", a.cfg.n,
-                a.cfg.backend.c_str(), a.cfg.method.c_str(), a.cfg.variant.c_str(), a.cfg.precond.c_str(),
-                a.precision.c_str());
+                to_string(a.cfg.backend).c_str(), to_string(a.cfg.method).c_str(), to_string(a.cfg.variant).c_str(),
+                to_string(a.cfg.precond).c_str(), a.precision.c_str());
     for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
     std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
-                r.status.c_str(), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
+                to_string(r.status), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
     std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %.4g vectors of N^2 -> %.2f GB/s, "
                 "%.4g DOF/s)\n", alloc_s + r.init_s, r.solve_s, per_iter * 1e3, solve_bytes / (sizeof(T) * n2),
                 gbps, dofs);
     if (!sizes.empty())
       std::printf("  multigrid: %zu levels, N = %ld down to %ld, %sV(1,1) red-black Gauss-Seidel\n", sizes.size(),
                   sizes.front(), sizes.back(), fmg ? "F-cycle of " : "");
-    if (a.check_symmetry)
+    if (a.cfg.check_symmetry)
       std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", asymmetry);
     if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
-    if (!fixed && r.status == "converged" && r.true_rel_residual > a.tol)
+    if (!fixed && r.status == poisson::Status::converged && r.true_rel_residual > a.tol)
       std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
                   "(precision %s cannot represent x more accurately)\n",
                   r.true_rel_residual, a.tol, a.precision.c_str());
@@ -171,9 +181,9 @@ int solve(const Args& a) {
 std::string backend_help() {
   std::string s = "Backends:\n";
   for (const auto& b : poisson::backends()) {
-    s += "  " + b.name + std::string(9 - b.name.size(), ' ') + b.summary +
+    s += "  " + b.name() + std::string(9 - b.name().size(), ' ') + b.summary +
          (b.onesweep ? " [variants: onesweep (default in double), classic]" : " [variant: classic]") +
-         (b.mg ? " [precond: none, mg] [method: cg, fmg]" : " [precond: none] [method: cg]");
+         (b.multigrid ? " [precond: none, mg] [method: cg, fmg]" : " [precond: none] [method: cg]");
     if (!b.built) s += " [NOT BUILT: " + b.why_not + "]";
     s += "\n";
   }
@@ -190,7 +200,7 @@ int main(int argc, char** argv) {
       "(HPCF-2014-6). Stops when ||r||/||r0|| <= tol.",
       "poisson"};
   app.add_option("--n", a.cfg.n, "interior points per dimension")->check(hpcgi::integer_in(1, 1LL << 20))->capture_default_str();
-  app.add_option("--backend", a.cfg.backend, "serial | openmp | mpi | cublas1 | cublas2 | cuda")->capture_default_str();
+  app.add_option("--backend", a.backend, "serial | openmp | mpi | cublas1 | cublas2 | cuda")->capture_default_str();
   CLI::Option* steps = app.add_option("--steps", a.steps, "exactly K iterations, no tolerance (the time per iteration; "
                                       "status steps_done)")->check(hpcgi::integer_in(1, 1LL << 40));
   app.add_option("--max-iter", a.max_iter, "iteration limit with --tol (default max(1000, 4N)); reaching it ends with "
@@ -198,27 +208,27 @@ int main(int argc, char** argv) {
   app.add_option("--tol", a.tol, "relative residual tolerance")->check(hpcgi::positive_finite())->capture_default_str()
       ->excludes(steps);
   app.add_option("--precision", a.precision, "precision of vectors and stencil (dots accumulate in double)")
-      ->check(CLI::IsMember({"double", "float"}))->capture_default_str();
+      ->check(CLI::IsMember(poisson::choice_names<poisson::Precision>()))->capture_default_str();
   app.add_option("--variant", a.variant,
                  "classic: three fused kernels, 11 vectors per iteration; onesweep: Chronopoulos-Gear CG in one pass, "
                  "6 vectors (default in double where the backend has it, see below)")
-      ->check(CLI::IsMember({"classic", "onesweep"}));
-  app.add_option("--precond", a.cfg.precond,
+      ->check(CLI::IsMember(poisson::choice_names<poisson::Variant>()));
+  app.add_option("--precond", a.precond,
                  "none: plain CG; mg: CG preconditioned by one geometric multigrid V-cycle (N, N/2, ... 1; red-black "
                  "Gauss-Seidel forward before and backward after the coarse correction, full weighting, bilinear "
                  "prolongation); backends serial, openmp, mpi, cuda")
-      ->check(CLI::IsMember({"none", "mg"}))->capture_default_str();
-  app.add_option("--method", a.cfg.method,
+      ->check(CLI::IsMember(poisson::choice_names<poisson::Precond>()))->capture_default_str();
+  app.add_option("--method", a.method,
                  "cg: conjugate gradients (--variant, --precond); fmg: full multigrid, not CG: one F-cycle from the "
                  "coarsest grid up (the V-cycle's smoother and transfers of --precond mg, one V-cycle per level from "
                  "the interpolated coarser solution), then V-cycles until the same ||r||/||r0|| <= tol; an iteration "
                  "is one fine-grid V-cycle; backends serial, openmp, mpi, cuda")
-      ->check(CLI::IsMember({"cg", "fmg"}))->capture_default_str();
-  app.add_flag("--check-symmetry", a.check_symmetry,
+      ->check(CLI::IsMember(poisson::choice_names<poisson::Method>()))->capture_default_str();
+  app.add_flag("--check-symmetry", a.cfg.check_symmetry,
                "with --precond mg: before the solve, compare (M^-1 x).y with x.(M^-1 y) for random x, y (printed and "
                "recorded as result.mg_asymmetry)");
-  app.add_option("--halo", a.cfg.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
-      ->check(CLI::IsMember({"nonblocking", "blocking"}))->capture_default_str();
+  app.add_option("--halo", a.halo, "mpi halo exchange: MPI_Isend/Irecv or MPI_Send/Recv")
+      ->check(CLI::IsMember(poisson::choice_names<poisson::Halo>()))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
       ->check(hpcgi::integer_in(1, 4096));
   hpcgi::add_record_options(&app, a);
@@ -236,16 +246,12 @@ int main(int argc, char** argv) {
     hpcgi::check_tolerance(a.tol, a.precision);
     hpcgi::check_threads(a.cfg.threads);
     hpcgi::files::check_outputs({{a.record_path, "--record", true}, {a.solution_path, "--solution"}}, {});
-    a.cfg.variant = a.variant.empty() ? poisson::default_variant(a.cfg.backend, a.precision, a.cfg.precond, a.cfg.method)
-                                    : a.variant;
-    const bool mpi = a.cfg.backend == "mpi";
-    if (a.check_symmetry && a.cfg.precond != "mg")
-      throw hpcgi::UsageError("--check-symmetry checks the multigrid preconditioner: it needs --precond mg");
-    if (!mpi && hpcgi::launched_by_mpirun_with_many_ranks())
-      throw hpcgi::UsageError("backend '" + a.cfg.backend + "' runs as one process; use --backend mpi under mpirun");
+    a.cfg = config_of(a);
+    const bool mpi = a.cfg.backend == poisson::Backend::mpi;
     if (a.cfg.threads > 0) omp_set_num_threads(a.cfg.threads);
     else if (mpi && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
     hpcgi::comm::Session session(mpi);  // rank, size and hosts for the record; MPI_Finalize at the end
-    return a.precision == "float" ? solve<float>(a) : solve<double>(a);
+    poisson::check_config(a.cfg);       // the one place a configuration is refused
+    return a.cfg.precision == poisson::Precision::single ? solve<float>(a) : solve<double>(a);
   });
 }

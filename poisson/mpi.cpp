@@ -44,7 +44,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
  public:
   explicit Mpi(const Config& cfg)
       : rank_(world_rank()), size_(world_size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
-        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"),
+        blocking_(cfg.halo == Halo::blocking), onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg),
         blk_(cfg.n, part_.y0, part_.ny, !fmg_) {
     const int active = static_cast<int>(std::min<long>(size_, n_));  // ranks 0..active-1 hold rows
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
@@ -119,7 +119,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
     return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(n_) + 0.5)
-                : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+                : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {
@@ -130,7 +130,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
     l = l.substr(0, l.find_first_of(",\n"));
     return {{"ranks", std::to_string(size_)},
             {"threads", std::to_string(omp_get_max_threads())},
-            {"halo", blocking_ ? "blocking" : "nonblocking"},
+            {"halo", to_string(blocking_ ? Halo::blocking : Halo::nonblocking)},
             {"mpi_library", l}};
   }
 
