@@ -106,6 +106,7 @@ struct SolveBackend {
   bool one_channel = false;  // solves a grey system as one channel
   bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
   bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
+  bool gpu = false;             // runs on an NVIDIA GPU (--list-backends; the kit's GPU cases)
 };
 const std::vector<SolveBackend>& solve_backends();
 
