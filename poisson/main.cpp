@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include "common/cli.hpp"
@@ -20,6 +21,7 @@
 #include "poisson/cg.hpp"
 #include "poisson/kernels.hpp"
 #include "poisson/mg.hpp"
+#include "poisson/verify.hpp"
 
 namespace {
 
@@ -54,9 +56,9 @@ void write_solution(const std::string& path, const std::vector<double>& x) {
   out.commit();
 }
 
-// The exit status of a run (common/errors.hpp): 0 converged or the fixed steps done, 3 broken down, 4 stopped at
-// max_iter.
-hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter) {
+// The exit status of a run (common/errors.hpp): 0 converged or the fixed steps done (and agreed with the float64
+// check), 3 broken down, 4 stopped at max_iter, 5 the float64 check failed (check: null where none was made).
+hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter, const poisson::Check* check) {
   if (r.status == poisson::Status::breakdown) return {hpcgi::kExitNumerical, r.breakdown};
   if (r.status == poisson::Status::max_iter) {
     char why[160];
@@ -64,7 +66,27 @@ hpcgi::Outcome outcome_of(const poisson::CgResult& r, double tol, long max_iter)
                   r.rel_residual, r.iterations, max_iter, tol);
     return {hpcgi::kExitNotConverged, why};
   }
+  if (check && !check->agreed) {
+    char why[200];
+    std::snprintf(why, sizeof why, "||u - u_h||_inf = %.4e against the exact solution, above the bound %.4e",
+                  check->error_inf, check->bound);
+    return {hpcgi::kExitDisagreed, why};
+  }
   return {};
+}
+
+// The record's verify section: the float64 check of the error against the exact solution (verify.hpp), or
+// agreed null for a run that is no answer.
+nlohmann::json verify_section(const poisson::Check* c) {
+  if (!c) return {{"agreed", nullptr}};
+  nlohmann::json v = {{"reference", "exact solution u = sin^2(pi x) sin^2(pi y), error in float64"},
+                      {"error_inf", c->error_inf},
+                      {"bound", c->bound},
+                      {"bound_terms", {{"discretisation", c->discretisation}, {"algebraic", c->algebraic},
+                                       {"rounding", c->rounding}}},
+                      {"agreed", c->agreed}};
+  if (c->test_factor != 1.0) v["test_factor"] = c->test_factor;  // HPCGI_TEST_POISSON_BOUND: a planted failure
+  return v;
 }
 
 // The bytes a solve of `iterations` moves by the data-movement model: bytes_per_iter each, or with --method fmg
@@ -102,7 +124,11 @@ int solve(const Args& a) {
   if (fixed && r.status == poisson::Status::max_iter) r.status = poisson::Status::steps_done;
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   const auto info = k->info();
-  const hpcgi::Outcome outcome = outcome_of(r, a.tol, max_iter);
+  // The float64 check of an answer (converged, or the fixed steps done), on every rank alike.
+  const bool answer = r.status == poisson::Status::converged || r.status == poisson::Status::steps_done;
+  const double rho = fixed ? r.rel_residual : a.tol, eps = std::numeric_limits<T>::epsilon();
+  const poisson::Check check = answer ? poisson::check_answer(a.cfg.n, rho, eps, r.error_inf) : poisson::Check{};
+  const hpcgi::Outcome outcome = outcome_of(r, a.tol, max_iter, answer ? &check : nullptr);
   if (!root) return outcome.status;  // rank 0 reports; the others end with the same status
 
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
@@ -133,6 +159,7 @@ int solve(const Args& a) {
                    {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
   if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
   hpcgi::record::set_outcome(rec, outcome);
+  rec["verify"] = verify_section(answer ? &check : nullptr);
   const std::vector<long> sizes = a.cfg.multigrid() && pre ? pre->mg_sizes() : std::vector<long>();
   if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
   if (a.cfg.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
@@ -237,7 +264,9 @@ int main(int argc, char** argv) {
              "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n"
              "  bin/poisson --n 4096 --backend openmp --threads 2 --precond mg\n"
              "  bin/poisson --n 8191 --backend openmp --threads 2 --method fmg\n\n" + hpcgi::exit_status_help() +
-             "(bin/poisson has no float64 check: status 5 is bin/radiosity's.)\n");
+             "bin/poisson's float64 check: ||u - u_h||_inf against the exact solution must lie within\n"
+             "pi^4 h^2/6 + rho ||b||_2 / (8 sin^2(pi h/2)) + eps (rho: --tol, or the relative residual after --steps;\n"
+             "eps: the precision's machine epsilon), else exit status 5; recorded as verify.\n");
   int code = 0;
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
