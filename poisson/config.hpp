@@ -97,4 +97,7 @@ Variant default_variant(Backend b, Precision p, Precond pc = Precond::none, Meth
 // onesweep, --check-symmetry without --precond mg, a one-process backend under mpirun with several ranks.
 void check_config(const Config& cfg);
 
+// --list-backends: the table above, as text or (json) as one JSON object (list_backends.cpp).
+std::string describe_backends(bool json);
+
 }  // namespace poisson

@@ -259,6 +259,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
       ->check(hpcgi::integer_in(1, 4096));
   hpcgi::add_record_options(&app, a);
+  hpcgi::add_list_backends(app, poisson::describe_backends);
   app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");
   app.footer(backend_help() + "\nExamples:\n  bin/poisson --n 512 --backend openmp --threads 2\n"
              "  mpirun -np 4 bin/poisson --n 1024 --backend mpi --halo blocking --record results/poisson.jsonl\n"
