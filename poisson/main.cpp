@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <string>
 
 #include "common/cli.hpp"
@@ -99,53 +100,44 @@ double bytes_moved(const std::vector<double>& fmg_levels, long iterations, doubl
   return v * vector + (iterations - 1) * bytes_per_iter;
 }
 
+// What a run found, for its record and its printed summary (rank 0).
+struct Run {
+  poisson::CgResult r;
+  std::map<std::string, std::string> info;
+  bool fixed = false, answer = false;
+  long max_iter = 0;
+  double alloc_s = 0, asymmetry = 0, total_s = 0;
+  int vectors = 0;         // the backend's vectors per iteration
+  double vector_bytes = 0; // sizeof(T) N²
+  double bytes_per_iter = 0, per_iter = 0, solve_bytes = 0, gbps = 0, dofs = 0;
+  std::vector<double> fmg_levels;  // --method fmg: the F-cycle's vectors per level
+  std::vector<long> sizes;         // the multigrid hierarchy, finest first
+  poisson::Check check;
+  hpcgi::Outcome outcome;
+};
+
+// The data-movement figures of a finished run (rank 0).
 template <class T>
-int solve(const Args& a) {
-  hpcgi::Timer total;
-  hpcgi::Timer t;
-  auto k = poisson::make_kernels<T>(a.cfg);
-  const double alloc_s = t.seconds();
-  const bool root = k->is_root();
-  auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
-  // Before the solve: the check overwrites r and z, which the solve's init resets.
-  const double asymmetry = a.cfg.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
-  const bool fixed = a.steps > 0;
-  const long max_iter = fixed ? a.steps : a.max_iter > 0 ? a.max_iter : poisson::kDefaultMaxIter.of(a.cfg.n);
-  const double tol = fixed ? 0.0 : a.tol;  // fixed steps: only an exact zero residual stops them early
-
-  hpcgi::Timer since_print;
-  auto progress = [&](long it, double rel) {
-    if (root && !a.quiet && since_print.seconds() >= 10.0) {
-      std::fprintf(stderr, "poisson: iteration %ld, relative residual %.3e\n", it, rel);
-      since_print.reset();
-    }
-  };
-  poisson::CgResult r = poisson::run_config(*k, a.cfg, tol, max_iter, progress);
-  if (fixed && r.status == poisson::Status::max_iter) r.status = poisson::Status::steps_done;
-  const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
-  const auto info = k->info();
-  // The float64 check of an answer (converged, or the fixed steps done), on every rank alike.
-  const bool answer = r.status == poisson::Status::converged || r.status == poisson::Status::steps_done;
-  const double rho = fixed ? r.rel_residual : a.tol, eps = std::numeric_limits<T>::epsilon();
-  const poisson::Check check = answer ? poisson::check_answer(a.cfg.n, rho, eps, r.error_inf) : poisson::Check{};
-  const hpcgi::Outcome outcome = outcome_of(r, a.tol, max_iter, answer ? &check : nullptr);
-  if (!root) return outcome.status;  // rank 0 reports; the others end with the same status
-
+void add_perf(const Args& a, const poisson::Kernels<T>& k, Run& u) {
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
-  const double bytes_per_iter = k->vectors_per_iteration() * sizeof(T) * n2;
-  const double per_iter = r.iterations > 0 ? r.solve_s / r.iterations : 0.0;
-  const bool fmg = a.cfg.method == poisson::Method::fmg;
-  const std::vector<double> fmg_levels = fmg ? poisson::fmg_vectors_per_level(a.cfg.n) : std::vector<double>();
-  const double solve_bytes = bytes_moved(fmg_levels, r.iterations, bytes_per_iter, sizeof(T) * n2);
-  const double gbps = r.solve_s > 0 ? solve_bytes / r.solve_s / 1e9 : 0.0;
-  const double dofs = r.solve_s > 0 ? n2 / r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
+  u.vectors = k.vectors_per_iteration();
+  u.vector_bytes = sizeof(T) * n2;
+  u.bytes_per_iter = u.vectors * u.vector_bytes;
+  u.per_iter = u.r.iterations > 0 ? u.r.solve_s / u.r.iterations : 0.0;
+  if (a.cfg.method == poisson::Method::fmg) u.fmg_levels = poisson::fmg_vectors_per_level(a.cfg.n);
+  u.solve_bytes = bytes_moved(u.fmg_levels, u.r.iterations, u.bytes_per_iter, u.vector_bytes);
+  u.gbps = u.r.solve_s > 0 ? u.solve_bytes / u.r.solve_s / 1e9 : 0.0;
+  u.dofs = u.r.solve_s > 0 ? n2 / u.r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
+}
 
+nlohmann::json record_of(const Args& a, const Run& u) {
+  const poisson::CgResult& r = u.r;
   nlohmann::json rec = hpcgi::record::make("poisson");
   rec["params"] = {{"n", a.cfg.n},         {"backend", to_string(a.cfg.backend)}, {"variant", to_string(a.cfg.variant)},
                    {"precision", a.precision},
-                   {"tol", fixed ? nlohmann::json() : nlohmann::json(a.tol)},
-                   {"steps", a.steps},     {"max_iter", max_iter},     {"threads", std::stoi(info.at("threads"))},
-                   {"ranks", info.count("ranks") ? std::stoi(info.at("ranks")) : 1}};
+                   {"tol", u.fixed ? nlohmann::json() : nlohmann::json(a.tol)},
+                   {"steps", a.steps},     {"max_iter", u.max_iter},   {"threads", std::stoi(u.info.at("threads"))},
+                   {"ranks", u.info.count("ranks") ? std::stoi(u.info.at("ranks")) : 1}};
   rec["params"]["precond"] = to_string(a.cfg.precond);
   rec["params"]["method"] = to_string(a.cfg.method);
   if (a.cfg.backend == poisson::Backend::mpi) rec["params"]["halo"] = to_string(a.cfg.halo);
@@ -154,54 +146,96 @@ int solve(const Args& a) {
                    {"iterations", r.iterations},
                    {"rel_residual", r.rel_residual},
                    {"true_rel_residual", r.true_rel_residual},
-                   {"true_residual_meets_tol", fixed ? nlohmann::json() : nlohmann::json(r.true_rel_residual <= a.tol)},
+                   {"true_residual_meets_tol", u.fixed ? nlohmann::json() : nlohmann::json(r.true_rel_residual <= a.tol)},
                    {"error_inf", r.error_inf},
                    {"h", 1.0 / static_cast<double>(a.cfg.n + 1)}};
   if (!r.breakdown.empty()) rec["result"]["breakdown"] = r.breakdown;
-  hpcgi::record::set_outcome(rec, outcome);
-  rec["verify"] = verify_section(answer ? &check : nullptr);
-  const std::vector<long> sizes = a.cfg.multigrid() && pre ? pre->mg_sizes() : std::vector<long>();
-  if (!sizes.empty()) rec["result"]["mg_levels"] = sizes;
-  if (a.cfg.check_symmetry) rec["result"]["mg_asymmetry"] = asymmetry;
-  rec["times_s"] = {{"setup", alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", per_iter},
-                    {"check", r.check_s},          {"total", total.seconds()}};
-  rec["perf"] = {{"vectors_per_iteration", k->vectors_per_iteration()},
-                 {"bytes_per_iteration", bytes_per_iter},
-                 {"bandwidth_GBps", gbps},
-                 {"solve_bytes", solve_bytes},
-                 {"dof_per_s", dofs},
-                 {"timer", poisson::backend_entry(a.cfg.backend).gpu ? "host wall clock, device synchronised" : "host wall clock"}};
-  if (fmg) rec["perf"]["fmg_vectors_per_level"] = fmg_levels;
-  rec["backend_info"] = info;
+  hpcgi::record::set_outcome(rec, u.outcome);
+  rec["verify"] = verify_section(u.answer ? &u.check : nullptr);
+  if (!u.sizes.empty()) rec["result"]["mg_levels"] = u.sizes;
+  if (a.cfg.check_symmetry) rec["result"]["mg_asymmetry"] = u.asymmetry;
+  rec["times_s"] = {{"setup", u.alloc_s + r.init_s}, {"solve", r.solve_s},    {"per_iteration", u.per_iter},
+                    {"check", r.check_s},            {"total", u.total_s}};
+  rec["perf"] = {{"vectors_per_iteration", u.vectors},
+                 {"bytes_per_iteration", u.bytes_per_iter},
+                 {"bandwidth_GBps", u.gbps},
+                 {"solve_bytes", u.solve_bytes},
+                 {"dof_per_s", u.dofs},
+                 {"timer", poisson::backend_entry(a.cfg.backend).gpu ? "host wall clock, device synchronised"
+                                                                     : "host wall clock"}};
+  if (!u.fmg_levels.empty()) rec["perf"]["fmg_vectors_per_level"] = u.fmg_levels;
+  rec["backend_info"] = u.info;
+  return rec;
+}
 
-  if (!a.quiet) {
-    std::printf("poisson: N=%ld backend=%s method=%s variant=%s precond=%s precision=%s", a.cfg.n,
-                to_string(a.cfg.backend).c_str(), to_string(a.cfg.method).c_str(), to_string(a.cfg.variant).c_str(),
-                to_string(a.cfg.precond).c_str(), a.precision.c_str());
-    for (const auto& [key, v] : info) std::printf(" %s=%s", key.c_str(), v.c_str());
-    std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
-                to_string(r.status), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
-    std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %.4g vectors of N^2 -> %.2f GB/s, "
-                "%.4g DOF/s)\n", alloc_s + r.init_s, r.solve_s, per_iter * 1e3, solve_bytes / (sizeof(T) * n2),
-                gbps, dofs);
-    if (!sizes.empty())
-      std::printf("  multigrid: %zu levels, N = %ld down to %ld, %sV(1,1) red-black Gauss-Seidel\n", sizes.size(),
-                  sizes.front(), sizes.back(), fmg ? "F-cycle of " : "");
-    if (a.cfg.check_symmetry)
-      std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", asymmetry);
-    if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
-    if (!fixed && r.status == poisson::Status::converged && r.true_rel_residual > a.tol)
-      std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
-                  "(precision %s cannot represent x more accurately)\n",
-                  r.true_rel_residual, a.tol, a.precision.c_str());
-  }
+void print_summary(const Args& a, const Run& u) {
+  const poisson::CgResult& r = u.r;
+  std::printf("poisson: N=%ld backend=%s method=%s variant=%s precond=%s precision=%s", a.cfg.n,
+              to_string(a.cfg.backend).c_str(), to_string(a.cfg.method).c_str(), to_string(a.cfg.variant).c_str(),
+              to_string(a.cfg.precond).c_str(), a.precision.c_str());
+  for (const auto& [key, v] : u.info) std::printf(" %s=%s", key.c_str(), v.c_str());
+  std::printf("\n  status %s after %ld iterations: relative residual %.3e (true %.3e), ||u - u_h||_inf = %.4e\n",
+              to_string(r.status), r.iterations, r.rel_residual, r.true_rel_residual, r.error_inf);
+  std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %.4g vectors of N^2 -> %.2f GB/s, "
+              "%.4g DOF/s)\n", u.alloc_s + r.init_s, r.solve_s, u.per_iter * 1e3, u.solve_bytes / u.vector_bytes,
+              u.gbps, u.dofs);
+  if (!u.sizes.empty())
+    std::printf("  multigrid: %zu levels, N = %ld down to %ld, %sV(1,1) red-black Gauss-Seidel\n", u.sizes.size(),
+                u.sizes.front(), u.sizes.back(), u.fmg_levels.empty() ? "" : "F-cycle of ");
+  if (a.cfg.check_symmetry)
+    std::printf("  symmetry: |(M^-1 x).y - x.(M^-1 y)| / |(M^-1 x).y| = %.3e for random x, y\n", u.asymmetry);
+  if (!r.breakdown.empty()) std::printf("  breakdown: %s\n", r.breakdown.c_str());
+  if (!u.fixed && r.status == poisson::Status::converged && r.true_rel_residual > a.tol)
+    std::printf("  note: the true residual %.3e is above tol %.1e: the recursive residual has drifted from it "
+                "(precision %s cannot represent x more accurately)\n",
+                r.true_rel_residual, a.tol, a.precision.c_str());
+}
+
+template <class T>
+int solve(const Args& a) {
+  hpcgi::Timer total;
+  hpcgi::Timer t;
+  Run u;
+  auto k = poisson::make_kernels<T>(a.cfg);
+  u.alloc_s = t.seconds();
+  const bool root = k->is_root();
+  auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
+  // Before the solve: the check overwrites r and z, which the solve's init resets.
+  u.asymmetry = a.cfg.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
+  u.fixed = a.steps > 0;
+  u.max_iter = u.fixed ? a.steps : a.max_iter > 0 ? a.max_iter : poisson::kDefaultMaxIter.of(a.cfg.n);
+  const double tol = u.fixed ? 0.0 : a.tol;  // fixed steps: only an exact zero residual stops them early
+
+  hpcgi::Timer since_print;
+  auto progress = [&](long it, double rel) {
+    if (root && !a.quiet && since_print.seconds() >= 10.0) {
+      std::fprintf(stderr, "poisson: iteration %ld, relative residual %.3e\n", it, rel);
+      since_print.reset();
+    }
+  };
+  u.r = poisson::run_config(*k, a.cfg, tol, u.max_iter, progress);
+  if (u.fixed && u.r.status == poisson::Status::max_iter) u.r.status = poisson::Status::steps_done;
+  const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
+  u.info = k->info();
+  // The float64 check of an answer (converged, or the fixed steps done), on every rank alike.
+  u.answer = u.r.status == poisson::Status::converged || u.r.status == poisson::Status::steps_done;
+  const double rho = u.fixed ? u.r.rel_residual : a.tol, eps = std::numeric_limits<T>::epsilon();
+  if (u.answer) u.check = poisson::check_answer(a.cfg.n, rho, eps, u.r.error_inf);
+  u.outcome = outcome_of(u.r, a.tol, u.max_iter, u.answer ? &u.check : nullptr);
+  if (!root) return u.outcome.status;  // rank 0 reports; the others end with the same status
+
+  add_perf(a, *k, u);
+  if (a.cfg.multigrid() && pre) u.sizes = pre->mg_sizes();
+  u.total_s = total.seconds();
+  const nlohmann::json rec = record_of(a, u);
+  if (!a.quiet) print_summary(a, u);
   hpcgi::record::emit(rec, a);
-  // A run that is no answer (broken down, or stopped at --max-iter) writes no solution: only its record (as
-  // bin/radiosity does).
-  if (!a.solution_path.empty() && outcome.status == hpcgi::kExitOk) write_solution(a.solution_path, x);
+  // A run that is no answer (broken down, stopped at --max-iter, or disagreed with its check) writes no solution:
+  // only its record (as bin/radiosity does).
+  if (!a.solution_path.empty() && u.outcome.status == hpcgi::kExitOk) write_solution(a.solution_path, x);
   // Every rank has this outcome (the residuals are allreduced; the others returned its status above): agreed, so
   // rank 0 says it once rather than as "rank 0 of P" ending the others.
-  hpcgi::finish(outcome, /*agreed=*/true);
+  hpcgi::finish(u.outcome, /*agreed=*/true);
   return hpcgi::kExitOk;
 }
 
