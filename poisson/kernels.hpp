@@ -90,9 +90,9 @@ class Preconditioned {
   virtual double apply_dot(const GridFn& x, const GridFn& y) = 0;
 };
 
-// Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
-// this binary, one whose hardware is absent (a CUDA backend on a machine without a GPU), or a variant the backend
-// does not have, or a preconditioner it does not have (--precond mg on cublas1, cublas2).
+// Creates the backend cfg.backend names. Throws hpcgi::UsageError for what check_config (config.hpp) refuses (a
+// backend not built in this binary, a variant, preconditioner or method the backend does not have) and for a
+// backend whose hardware is absent (a CUDA backend on a machine without a GPU).
 template <class T>
 std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg);
 
