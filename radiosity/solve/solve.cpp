@@ -113,6 +113,7 @@ enum Facts : unsigned {
   kDistributed = 8,      // MPI ranks, each its block of rows
   kSparseStorage = 16,   // reads csr and compressed F (the GPU backends)
   kGpu = 32,             // runs on an NVIDIA GPU
+  kRrvLoop = 64,         // RRV's loop as it was (backend original)
 };
 SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, std::vector<Layout> layouts,
                  std::vector<Precision> precisions, Build build, const char* summary) {
@@ -123,6 +124,7 @@ SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, 
   b.distributed = (facts & kDistributed) != 0;
   b.sparse_storage = (facts & kSparseStorage) != 0;
   b.gpu = (facts & kGpu) != 0;
+  b.rrv_loop = (facts & kRrvLoop) != 0;
   return b;
 }
 }  // namespace
@@ -134,7 +136,7 @@ const std::vector<SolveBackend>& solve_backends() {
   static const std::vector<Precision> kBoth = {Precision::single, Precision::double_};
   auto built_in = [](BackendRun run) { return Build{true, "", run}; };  // the CPU backends: in every build
   static const std::vector<SolveBackend> list = {
-      row("original", kFixedStepsOnly, {Method::jacobi}, {Layout::aos}, {Precision::single},
+      row("original", kFixedStepsOnly | kRrvLoop, {Method::jacobi}, {Layout::aos}, {Precision::single},
           built_in(run_original),
           "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element"),
       row("serial", kTolerance | kAnyStorage | kOneChannel, kAll, kAosSoa, kBoth,
@@ -202,7 +204,7 @@ void check_config(const SolveConfig& cfg) {
   if (cfg.omega != 1 && cfg.method != Method::sor)
     throw hpcgi::UsageError("--omega applies to --method sor, not " + to_string(cfg.method) +
                             " (gauss-seidel is sor with omega 1)");
-  if (b->name == "original" && (cfg.history || cfg.stop != StopRule{}))
+  if (b->rrv_loop && (cfg.history || cfg.stop != StopRule{}))
     throw hpcgi::UsageError("backend 'original' runs RRV's loop as it was: fixed steps, no history, no stopping rule");
   if (cfg.steps == 0) {
     if (!b->tolerance)
@@ -218,7 +220,7 @@ void check_config(const SolveConfig& cfg) {
   }
   if (cfg.threads < 0) throw hpcgi::UsageError("threads must be >= 0 (0: the OpenMP default)");
   if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
-  if (cfg.ff_threshold != 0 && b->name != "original")
+  if (cfg.ff_threshold != 0 && !b->rrv_loop)
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
 }
 
