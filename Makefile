@@ -42,7 +42,7 @@ MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/dist/ff_mpi.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
 MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp
-MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
+MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp poisson/config.cpp poisson/verify.cpp poisson/list_backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)

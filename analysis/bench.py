@@ -261,6 +261,7 @@ def _pcg_targets(n, rows_n):
 
 def mg_rows(preset, host):
     """The bench-mg table (time to solution, iterations, error, DOF/s, time / ours) and its target lines."""
+    from common import backend_facts  # the programs' facts, read where the binaries are built (make bench)
     df = _on(load("bench-mg", preset), host)
     if not len(df):
         return [], []
@@ -281,7 +282,8 @@ def mg_rows(preset, host):
                 "time / ours": t / ours_t if ours_t else 1.0, "repeats": len(recs)}
 
     for n in sorted(df["params.n"].unique()):
-        cap = lambda r: r["params.max_iter"] < max(1000, 4 * n)  # noqa: E731  capped runs: per iteration only
+        default = backend_facts.poisson_default_max_iter(int(n))  # bin/poisson --list-backends --json
+        cap = lambda r: r["params.max_iter"] < default  # noqa: E731  capped runs: per iteration only
         at_n = mine["params.n"] == n
         o = mine[at_n & (precond[mine.index] == "mg") & (method[mine.index] == "cg")]
         f = mine[at_n & (method[mine.index] == "fmg")]

@@ -34,7 +34,7 @@ import numpy as np  # noqa: E402
 # A maya-like cluster: 72 nodes, 2 x 8 cores, QDR InfiniBand (about 1.5 us and 3.2 GB/s for MPI), about 40 GB/s of
 # memory bandwidth per node under STREAM. Parameters, not measurements: change them for another machine.
 MAYA = {"nodes": 72, "cores": 16, "alpha": 1.5e-6, "beta": 3.2e9, "node_bw": 40e9}
-POISSON_V = 11  # vectors of N² streamed per classic CG iteration (poisson/mpi.cpp vectors_per_iteration)
+POISSON_V = 11  # a model parameter: vectors of N² per classic CG iteration (bin/poisson --list-backends: mpi, classic)
 
 
 def log2p(p):

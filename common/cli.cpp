@@ -30,6 +30,9 @@ bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code) {
   } catch (const CLI::CallForAllHelp& e) {
     exit_code = app.exit(e);
     return false;
+  } catch (const CLI::Success&) {  // --list-backends: printed
+    exit_code = 0;
+    return false;
   } catch (const CLI::ParseError& e) {
     // A program of subcommands given an unknown one: name it, and the ones there are (CLI11 says only that a
     // subcommand is required).
@@ -47,6 +50,19 @@ bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code) {
     return false;
   }
   return true;
+}
+
+void add_list_backends(CLI::App& app, std::function<std::string(bool json)> describe) {
+  CLI::Option* json = app.get_option_no_throw("--json");
+  if (!json) json = app.add_flag("--json", "with --list-backends: print them as JSON");
+  app.add_flag_callback(
+      "--list-backends",
+      [json, describe] {
+        std::fputs(describe(json->count() > 0).c_str(), stdout);
+        throw CLI::Success();
+      },
+      "print the backends (name, GPU or not, built, vectors per iteration, default iteration limit) and exit; "
+      "--json: as JSON");
 }
 
 void check_tolerance(double tol, const std::string& precision) {

@@ -23,6 +23,11 @@ int run_main(const std::string& program, const std::function<int()>& body);
 // returns 2. Returns true when the program should go on.
 bool parse_cli(CLI::App& app, int argc, char** argv, int& exit_code);
 
+// --list-backends [--json] on `app`: prints describe(json) on stdout and ends parse_cli with exit status 0, before
+// any requirement of the command line (a subcommand) is checked. --json is the app's own where it has one (bin/poisson's
+// record option), else added here. The programs' facts about their backends, for the Python that needs them.
+void add_list_backends(CLI::App& app, std::function<std::string(bool json)> describe);
+
 // A validator for floating-point options: finite and > 0 (rejects NaN, inf, 0 and negatives).
 CLI::Validator positive_finite();
 

@@ -9,8 +9,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-# A case is a GPU case when it runs one of these backends.
-GPU_BACKENDS = ("cublas1", "cublas2", "cuda", "cublas", "hybrid")
+from common import backend_facts  # which backends run on a GPU: the programs' --list-backends --json
 _COMMENT = re.compile(r"^\s*(#|$)")
 
 
@@ -31,7 +30,8 @@ class Case:
         return t[t.index("--backend") + 1] if "--backend" in t[:-1] else None
 
     def is_gpu(self):
-        return self.backend() in GPU_BACKENDS
+        """A case is a GPU case when it runs a backend the programs list as one (common/backend_facts.py)."""
+        return self.backend() in backend_facts.gpu_backends()
 
     def argv(self, tokens):
         """The command, tokens replaced; None for a case with ranks= (MPI: never a GPU case, never in the kit)."""

@@ -19,6 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+from common import backend_facts  # noqa: E402
 from gpukit import libs  # noqa: E402
 
 LIMIT = 60 << 20
@@ -33,7 +34,7 @@ RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
 TESTS = ("tests/conftest.py", "tests/integration/test_radiosity_gpu.py")
 DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/checks.py", "gpukit/plan.py",
           "gpukit/probe.py", "gpukit/node.py", "gpukit/archive.py", "gpukit/driver.py", "gpukit/summary.py",
-          "common/machine_label.py")
+          "common/machine_label.py", "common/backend_facts.py")
 
 
 class PackError(Exception):
@@ -49,6 +50,16 @@ def need(path):
 def copy(src, dst):
     dst.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy2(need(src), dst)
+
+
+def write_facts(kit, env):
+    """KIT/backends.json: the kit's programs' --list-backends --json (common/backend_facts.py), read by the driver's
+    plan and cases on the node without starting the programs there."""
+    try:
+        facts = {p: backend_facts.from_program(kit / "bin" / p, env) for p in backend_facts.PROGRAMS}
+    except backend_facts.FactsError as e:
+        raise PackError(str(e)) from e
+    (kit / backend_facts.FILE).write_text(json.dumps(facts, indent=1) + "\n")
 
 
 def pack(a):
@@ -108,6 +119,7 @@ def fill(a, kit):
         copy(f, kit / "paper" / f.name)
     for f in DRIVER + TESTS:
         copy(ROOT / f, kit / f)
+    write_facts(kit, env)
     for f in sorted((ROOT / "analysis").glob("*.py")):
         copy(f, kit / "analysis" / f.name)
     copy(ROOT / "common" / "record.schema.json", kit / "common" / "record.schema.json")  # analysis/record.py reads it

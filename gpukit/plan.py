@@ -8,6 +8,7 @@ free (the review of issue 32 found Poisson N = 8192 at about 16 s where an older
 measures the first steps against their estimates and drops the last ones, by name, when it runs late."""
 from pathlib import Path
 
+from common import backend_facts
 from gpukit import cases
 from gpukit.checks import (converged_and_agreed, gpu_tests_ran, mg_symmetric, poisson_agree, poisson_converged,
                            sanitizer_clean)
@@ -95,7 +96,7 @@ def case_estimate(c):
             # MG-PCG: 6-7 iterations at every N (measured on the CPU), each a V-cycle of about 40 vector passes
             # over all levels, and the host-side setup of b and u (3-5 s at N = 8192 on 2 cores here, less on 16)
             return round(2 + n * n / 8192 ** 2 + 8 * (6 + 40) * 8 * n * n / BYTES_PER_S)
-        vectors = {"cublas1": 14, "cublas2": 16, "cuda": 6}[c.backend()]
+        vectors = backend_facts.poisson_vectors(c.backend(), option(t, "--variant"), option(t, "--precision", "double"))
         return round(1 + 1581 * n / 1024 * vectors * 8 * n * n / BYTES_PER_S)
     return SCENE_ESTIMATE_S.get(Path(t[2]).name, 10)
 

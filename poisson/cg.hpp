@@ -4,6 +4,7 @@
 #pragma once
 #include <cmath>
 #include <functional>
+#include <stdexcept>
 #include <string>
 
 #include "common/errors.hpp"
@@ -12,13 +13,25 @@
 
 namespace poisson {
 
+// How a solve ended: converged, stopped at max_iter, the fixed --steps done (main's, from max_iter), broken down.
+enum class Status { converged, max_iter, steps_done, breakdown };
+inline const char* to_string(Status s) {
+  switch (s) {
+    case Status::converged: return "converged";
+    case Status::max_iter: return "max_iter";
+    case Status::steps_done: return "steps_done";
+    case Status::breakdown: return "breakdown";
+  }
+  return "unknown";
+}
+
 struct CgResult {
   long iterations = 0;
   double rel_residual = 0;       // recursive ‖r_k‖/‖r_0‖, the one the stopping test reads
   double true_rel_residual = 0;  // ‖b - A x_k‖/‖b‖ recomputed from x_k
   double error_inf = 0;          // ‖u - u_h‖∞ against the exact solution
-  std::string status;            // converged | max_iter | breakdown
-  std::string breakdown;         // what broke (empty unless status == breakdown)
+  Status status = Status::max_iter;
+  std::string breakdown;         // what broke (empty unless status is breakdown)
   double init_s = 0;             // x = 0, r = p = b
   double solve_s = 0;            // the iterations
   double check_s = 0;            // true residual and error after the solve
@@ -31,14 +44,14 @@ namespace detail {
 // positive, or r·r is not finite.
 inline bool pw_ok(CgResult& res, double pw, long it) {
   if (std::isfinite(pw) && pw > 0.0) return true;
-  res.status = "breakdown";
+  res.status = Status::breakdown;
   res.breakdown = "p·Ap = " + std::to_string(pw) + " at iteration " + std::to_string(it) +
                   " (must be finite and > 0 for a symmetric positive definite matrix)";
   return false;
 }
 inline bool rr_ok(CgResult& res, double rr, long it) {
   if (std::isfinite(rr)) return true;
-  res.status = "breakdown";
+  res.status = Status::breakdown;
   res.breakdown = "r·r is not finite at iteration " + std::to_string(it);
   return false;
 }
@@ -48,7 +61,7 @@ inline bool reached(CgResult& res, double rr, double rr0, long it, double tol, c
   res.rel_residual = std::sqrt(rr / rr0);
   if (progress) progress(it, res.rel_residual);
   if (res.rel_residual > tol) return false;
-  res.status = "converged";
+  res.status = Status::converged;
   return true;
 }
 
@@ -73,9 +86,9 @@ CgResult run_cg(Kernels<T>& k, double tol, long max_iter,
   const double rr0 = rr;
   res.init_s = t.seconds();
   t.reset();
-  res.status = "max_iter";
-  if (rr0 == 0.0) res.status = "converged";  // b = 0: x = 0 is exact
-  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+  res.status = Status::max_iter;
+  if (rr0 == 0.0) res.status = Status::converged;  // b = 0: x = 0 is exact
+  for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     const double pw = k.calc_w();
     if (!detail::pw_ok(res, pw, it)) break;
     const double alpha = rr / pw;
@@ -102,13 +115,13 @@ CgResult run_cg_onesweep(OneSweepKernels<T>& k, double tol, long max_iter, const
   double rAr = rr0 > 0 ? k.r_Ar() : 0.0;
   res.init_s = t.seconds();
   t.reset();
-  res.status = rr0 == 0.0 ? "converged" : "max_iter";
+  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
   double rr_prev = 0, alpha_prev = 0;
-  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+  for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     const double beta = it == 1 ? 0.0 : rr / rr_prev;
     const double pw = it == 1 ? rAr : rAr - beta * rr / alpha_prev;
     if (!std::isfinite(pw) || pw <= 0.0) {
-      res.status = "breakdown";
+      res.status = Status::breakdown;
       res.breakdown = "p·Ap = " + std::to_string(pw) + " at iteration " + std::to_string(it) +
                       " (from the Chronopoulos-Gear recurrence; must be finite and > 0 for a symmetric positive "
                       "definite matrix)";
@@ -118,13 +131,13 @@ CgResult run_cg_onesweep(OneSweepKernels<T>& k, double tol, long max_iter, const
     const SweepDots d = k.sweep(alpha, beta);
     res.iterations = it;
     if (!std::isfinite(d.rr) || !std::isfinite(d.rAr)) {
-      res.status = "breakdown";
+      res.status = Status::breakdown;
       res.breakdown = "r·r or r·Ar is not finite at iteration " + std::to_string(it);
       break;
     }
     res.rel_residual = std::sqrt(d.rr / rr0);
     if (progress) progress(it, res.rel_residual);
-    if (res.rel_residual <= tol) res.status = "converged";
+    if (res.rel_residual <= tol) res.status = Status::converged;
     rr_prev = rr;
     rr = d.rr;
     rAr = d.rAr;
@@ -143,7 +156,7 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   const double rr0 = k.init();
   res.init_s = t.seconds();
   t.reset();
-  res.status = rr0 == 0.0 ? "converged" : "max_iter";
+  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
   // fused: p = z + βp is made with p·Ap (calc_p_pw) at the top of the iteration, not after the V-cycle.
   const bool fused = m.fused_updates();
   double rz = 0, beta = 0;
@@ -151,9 +164,9 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
     rz = m.precondition();
     if (!fused) m.calc_p_z(0.0);
   }
-  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+  for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     if (!std::isfinite(rz) || rz <= 0.0) {
-      res.status = "breakdown";
+      res.status = Status::breakdown;
       res.breakdown = "r·M⁻¹r = " + std::to_string(rz) + " at iteration " + std::to_string(it) +
                       " (must be finite and > 0 for a symmetric positive definite preconditioner)";
       break;
@@ -184,8 +197,8 @@ CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   const double rr0 = k.init();
   res.init_s = t.seconds();
   t.reset();
-  res.status = rr0 == 0.0 ? "converged" : "max_iter";
-  for (long it = 1; it <= max_iter && res.status != "converged"; ++it) {
+  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
+  for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     m.solve_cycle(it == 1);
     const double rr = m.correct();
     res.iterations = it;
@@ -195,29 +208,24 @@ CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   return res;
 }
 
-// Runs the variant the backend was made for (cfg.variant; make_kernels refused a variant it does not have).
+// Runs the variant the backend was made for (cfg.variant; check_config refused a variant it does not have).
 template <class T>
-CgResult run_variant(Kernels<T>& k, const std::string& variant, double tol, long max_iter,
-                     const CgProgress& progress = nullptr) {
-  if (variant == "classic") return run_cg(k, tol, max_iter, progress);
+CgResult run_variant(Kernels<T>& k, Variant variant, double tol, long max_iter, const CgProgress& progress = nullptr) {
+  if (variant == Variant::classic) return run_cg(k, tol, max_iter, progress);
   auto* s = dynamic_cast<OneSweepKernels<T>*>(&k);
-  if (variant != "onesweep" || !s) throw hpcgi::UsageError("this backend has no variant '" + variant + "'");
+  if (!s) throw std::logic_error("backend made without the one-sweep kernels check_config promised");
   return run_cg_onesweep(*s, tol, max_iter, progress);
 }
 
-// Runs what cfg asks for: with cfg.method == "fmg" full multigrid, with cfg.precond == "mg" the preconditioned
-// CG, otherwise cfg.variant.
+// Runs what cfg asks for: with --method fmg full multigrid, with --precond mg the preconditioned CG, otherwise
+// cfg.variant. The configuration was checked (check_config): a backend lacking what it asks is a bug here.
 template <class T>
 CgResult run_config(Kernels<T>& k, const Config& cfg, double tol, long max_iter,
                     const CgProgress& progress = nullptr) {
+  if (!cfg.multigrid()) return run_variant(k, cfg.variant, tol, max_iter, progress);
   auto* m = dynamic_cast<Preconditioned*>(&k);
-  if (cfg.method == "fmg") {
-    if (!m) throw hpcgi::UsageError("this backend has no method 'fmg'");
-    return run_fmg(k, *m, tol, max_iter, progress);
-  }
-  if (cfg.precond == "none") return run_variant(k, cfg.variant, tol, max_iter, progress);
-  if (cfg.precond != "mg" || !m) throw hpcgi::UsageError("this backend has no preconditioner '" + cfg.precond + "'");
-  return run_pcg(k, *m, tol, max_iter, progress);
+  if (!m) throw std::logic_error("backend made without the multigrid kernels check_config promised");
+  return cfg.method == Method::fmg ? run_fmg(k, *m, tol, max_iter, progress) : run_pcg(k, *m, tol, max_iter, progress);
 }
 
 }  // namespace poisson

@@ -27,7 +27,7 @@ class Cublas1 final : public CublasBase<T> {
     return dot(B::r_.get(), B::r_.get());
   }
   void calc_p(double beta) override { axpby(1.0, B::r_.get(), beta, B::p_.get()); }
-  int vectors_per_iteration() const override { return 14; }
+  int vectors_per_iteration() const override { return kVectorsCublas1; }
 
  private:
   void axpby(double a, const T* x, double b, T* y) {

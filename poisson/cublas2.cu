@@ -24,7 +24,7 @@ class Cublas2 final : public CublasBase<T> {
     CUBLAS_CHECK(blas_scal(blas_.get(), B::blas_len(), beta, B::p_.get()));
     CUBLAS_CHECK(blas_axpy(blas_.get(), B::blas_len(), 1.0, B::r_.get(), B::p_.get()));
   }
-  int vectors_per_iteration() const override { return 16; }
+  int vectors_per_iteration() const override { return kVectorsCublas2; }
 };
 
 }  // namespace

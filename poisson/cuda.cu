@@ -154,7 +154,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
 
  public:
   explicit Cuda(const Config& cfg)
-      : B(cfg, "cuda"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), sum_(2), host_sum_(2) {
+      : B(cfg, "cuda"), onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg), sum_(2), host_sum_(2) {
     int dev = 0, sms = 0;
     CUDA_CHECK(cudaGetDevice(&dev));
     CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev));
@@ -262,7 +262,8 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
   }
 
   int vectors_per_iteration() const override {
-    return mg_ ? (fmg_ ? 7 : 11 + 2) + mg_vectors_per_cycle(B::n_) : onesweep_ ? 6 : 11;
+    return mg_ ? (fmg_ ? 7 : 11 + 2) + mg_vectors_per_cycle(B::n_)
+               : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   std::map<std::string, std::string> info() const override {
     auto i = B::info();

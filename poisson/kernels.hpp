@@ -13,21 +13,10 @@
 #include <string>
 #include <vector>
 
+#include "poisson/config.hpp"
 #include "poisson/problem.hpp"
 
 namespace poisson {
-
-struct Config {
-  long n = 512;
-  std::string backend = "serial";
-  std::string halo = "nonblocking";  // mpi: MPI_Isend/Irecv or MPI_Send/Recv
-  int threads = 0;                   // 0: the OpenMP default (OMP_NUM_THREADS or all cores)
-  std::string variant = "classic";   // classic | onesweep (see above)
-  std::string precond = "none";      // none | mg: CG preconditioned by one multigrid V-cycle (mg.hpp)
-  std::string method = "cg";         // cg | fmg: full multigrid, then V-cycles (mg.hpp fmg, cg.hpp run_fmg)
-  // Whether the backend holds z and the multigrid hierarchy: for --precond mg and for --method fmg.
-  bool multigrid() const { return precond == "mg" || method == "fmg"; }
-};
 
 template <class T>
 class Kernels {
@@ -72,8 +61,8 @@ class OneSweepKernels : public Kernels<T> {
 };
 
 // A backend that also runs CG preconditioned by one multigrid V-cycle (--precond mg, cg.hpp's run_pcg) derives
-// from this as well; it holds z and the grid hierarchy of mg.hpp only when it was made with cfg.precond == "mg" or
-// cfg.method == "fmg" (Config::multigrid).
+// from this as well; it holds z and the grid hierarchy of mg.hpp only when it was made with --precond mg or
+// --method fmg (Config::multigrid).
 class Preconditioned {
  public:
   virtual ~Preconditioned() = default;
@@ -101,29 +90,9 @@ class Preconditioned {
   virtual double apply_dot(const GridFn& x, const GridFn& y) = 0;
 };
 
-// Every backend name this program knows, and whether it was built in this binary (with the reason if not).
-struct BackendEntry {
-  std::string name;
-  std::string summary;
-  bool built;
-  std::string why_not;
-  bool onesweep;  // runs --variant onesweep (and uses it by default)
-  bool mg;        // runs --precond mg
-};
-const std::vector<BackendEntry>& backends();
-
-// The variant a backend runs when none is asked for: onesweep in double where the backend has it (6 vectors
-// instead of 11, the same iterations and solution), classic elsewhere. In float, onesweep's recurrence for p·Ap
-// loses accuracy as the float vectors lose conjugacy: it takes 10-25% more iterations (N = 128..512), so float
-// keeps classic. Throws hpcgi::UsageError for an unknown backend.
-// With a preconditioner (precond != "none") it is classic: preconditioned CG has the classic shape; with
-// method fmg too (the variant does not apply, and the record says classic).
-std::string default_variant(const std::string& backend, const std::string& precision,
-                            const std::string& precond = "none", const std::string& method = "cg");
-
-// Creates the backend named by cfg.backend. Throws hpcgi::UsageError for an unknown backend, one not built in
-// this binary, one whose hardware is absent (a CUDA backend on a machine without a GPU), or a variant the backend
-// does not have, or a preconditioner it does not have (--precond mg on cublas1, cublas2).
+// Creates the backend cfg.backend names. Throws hpcgi::UsageError for what check_config (config.hpp) refuses (a
+// backend not built in this binary, a variant, preconditioner or method the backend does not have) and for a
+// backend whose hardware is absent (a CUDA backend on a machine without a GPU).
 template <class T>
 std::unique_ptr<Kernels<T>> make_kernels(const Config& cfg);
 

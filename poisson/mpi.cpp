@@ -21,6 +21,7 @@
 #include <string>
 #include <type_traits>
 
+#include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "poisson/backends.hpp"
 #include "poisson/cpu_block.hpp"
@@ -43,8 +44,8 @@ template <class T>
 class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgComm<T> {
  public:
   explicit Mpi(const Config& cfg)
-      : rank_(world_rank()), size_(world_size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
-        blocking_(cfg.halo == "blocking"), onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"),
+      : rank_(hpcgi::comm::rank()), size_(hpcgi::comm::size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
+        blocking_(cfg.halo == Halo::blocking), onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg),
         blk_(cfg.n, part_.y0, part_.ny, !fmg_) {
     const int active = static_cast<int>(std::min<long>(size_, n_));  // ranks 0..active-1 hold rows
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
@@ -119,32 +120,17 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
     return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(n_) + 0.5)
-                : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? 6 : 11;
+                : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   bool is_root() const override { return rank_ == 0; }
   std::map<std::string, std::string> info() const override {
-    char lib[MPI_MAX_LIBRARY_VERSION_STRING];
-    int len = 0;
-    MPI_Get_library_version(lib, &len);
-    std::string l(lib, len);
-    l = l.substr(0, l.find_first_of(",\n"));
     return {{"ranks", std::to_string(size_)},
             {"threads", std::to_string(omp_get_max_threads())},
-            {"halo", blocking_ ? "blocking" : "nonblocking"},
-            {"mpi_library", l}};
+            {"halo", to_string(blocking_ ? Halo::blocking : Halo::nonblocking)},
+            {"mpi_library", hpcgi::comm::library()}};
   }
 
  private:
-  static int world_rank() {
-    int r = 0;
-    MPI_Comm_rank(MPI_COMM_WORLD, &r);
-    return r;
-  }
-  static int world_size() {
-    int s = 1;
-    MPI_Comm_size(MPI_COMM_WORLD, &s);
-    return s;
-  }
   static MPI_Datatype type() { return std::is_same_v<T, double> ? MPI_DOUBLE : MPI_FLOAT; }
   static double sum(double local) {
     double global = 0;
@@ -240,9 +226,8 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
 
 template <class T>
 std::unique_ptr<Kernels<T>> make_mpi(const Config& cfg) {
-  int initialized = 0;
-  MPI_Initialized(&initialized);
-  if (!initialized) throw hpcgi::UsageError("backend mpi: MPI is not initialized");
+  // MPI is the program's comm::Session (common/comm.hpp), opened before the backend is made; rank and size are its.
+  if (!hpcgi::comm::active()) throw hpcgi::UsageError("backend mpi: MPI is not initialized (no comm::Session)");
   return std::make_unique<Mpi<T>>(cfg);
 }
 template std::unique_ptr<Kernels<float>> make_mpi(const Config&);

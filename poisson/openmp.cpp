@@ -15,7 +15,7 @@ template <class T>
 class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
  public:
   explicit OpenMP(const Config& cfg)
-      : onesweep_(cfg.variant == "onesweep"), fmg_(cfg.method == "fmg"), blk_(cfg.n, 0, cfg.n, !fmg_) {
+      : onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg), blk_(cfg.n, 0, cfg.n, !fmg_) {
     if (!cfg.multigrid()) return;
     std::vector<LevelRows> rows;
     for (long m : mg_level_sizes(cfg.n)) rows.push_back({m, 0, m, true});
@@ -48,7 +48,7 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
   // fmg after its F-cycle: the solver's V-cycle from zero (mg.hpp) and [x += z, r -= Az, r·r] 5.
   int vectors_per_iteration() const override {
     return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(blk_.rows()) + 0.5)
-                : pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? 6 : 11;
+                : pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   std::map<std::string, std::string> info() const override {
     return {{"threads", std::to_string(omp_get_max_threads())}};

@@ -106,7 +106,7 @@ class Serial final : public Kernels<T>, public Preconditioned {
                                                     (cfg.multigrid() ? cfg.n * cfg.n + mg_extra_values(cfg.n)
                                                                          : 0.0))),
             cfg.n)),
-        fmg_(cfg.method == "fmg"), x_(n_ * n_), r_(n_ * n_), p_(n_ * n_), w_(n_ * n_), b_(n_ * n_) {
+        fmg_(cfg.method == Method::fmg), x_(n_ * n_), r_(n_ * n_), p_(n_ * n_), w_(n_ * n_), b_(n_ * n_) {
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) b_[j * n_ + i] = static_cast<T>(g_.b(i, j));
     if (cfg.multigrid()) {
@@ -203,7 +203,7 @@ class Serial final : public Kernels<T>, public Preconditioned {
   // Unfused loops: [w = Ap] 2, [p·w] 2, [x, r, r·r] 6, [p] 3; with multigrid (mg_vectors, kernels.hpp) [r·z] 2
   // and the V-cycle; fmg after its F-cycle: the V-cycle, [w = Az] 2, [x, r, r·r] 5.
   int vectors_per_iteration() const override {
-    return mg_ ? (fmg_ ? 7 : 13 + 2) + mg_vectors_per_cycle(n_) : 13;
+    return mg_ ? (fmg_ ? 7 : 13 + 2) + mg_vectors_per_cycle(n_) : kVectorsSerial;
   }
   std::map<std::string, std::string> info() const override { return {{"threads", "1"}}; }
 

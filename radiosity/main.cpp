@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
                "radiosity"};
   app.footer(hpcgi::exit_status_help());
   app.require_subcommand(1);
+  hpcgi::add_list_backends(app, radiosity::app::describe_backends);
   radiosity::app::InfoArgs info;
   radiosity::app::FormFactorArgs ff;
   radiosity::app::SolveArgs solve;

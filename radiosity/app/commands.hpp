@@ -48,6 +48,9 @@ CLI::Option* add_choice(CLI::App* cmd, const std::string& flag, E& value, E (*pa
       ->default_str(to_string(value));
 }
 
+// --list-backends [--json]: the registry of solve backends as text or one JSON object (list_backends.cpp).
+std::string describe_backends(bool json);
+
 // --size WIDTHxHEIGHT of a picture, 1..16384 pixels each; hpcgi::UsageError otherwise.
 std::pair<int, int> parse_size(const std::string& s);
 

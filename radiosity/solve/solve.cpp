@@ -84,44 +84,79 @@ bool failed(SolveStatus s) {
          s == SolveStatus::stagnant;
 }
 
-// The GPU backends are listed in every build, so that asking for one where it was not built says why.
+// How a backend is built: compiled into this binary or not (why not), and its run. The GPU backends are listed in
+// every build, so that asking for one where it was not built says why.
+struct Build {
+  bool built;
+  const char* why_not;
+  BackendRun run;
+};
 #ifdef HAVE_CUDA
-#define GPU_BACKEND(make) true, "", run_kernels<make<float>, make<double>>
+#define GPU_BACKEND(make) Build{true, "", run_kernels<make<float>, make<double>>}
 #else
-#define GPU_BACKEND(make) false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr
+#define GPU_BACKEND(make) Build{false, "this build has no CUDA (nvcc was not on PATH when it was compiled)", nullptr}
 #endif
 
 #ifdef HAVE_MPI
-#define MPI_BACKEND true, "", run_kernels<make_mpi<float>, make_mpi<double>>
+#define MPI_BACKEND Build{true, "", run_kernels<make_mpi<float>, make_mpi<double>>}
 #else
-#define MPI_BACKEND false, "this build has no MPI (mpicxx was not on PATH when it was compiled)", nullptr
+#define MPI_BACKEND Build{false, "this build has no MPI (mpicxx was not on PATH when it was compiled)", nullptr}
 #endif
+
+namespace {
+// A row's facts beyond its methods, layouts and precisions, by name (SolveBackend's fields of the same names).
+enum Facts : unsigned {
+  kFixedStepsOnly = 0,   // no tolerance: fixed steps only
+  kTolerance = 1,        // stops on a tolerance
+  kAnyStorage = 2,       // reads F in any storage
+  kOneChannel = 4,       // solves a grey system as one channel
+  kDistributed = 8,      // MPI ranks, each its block of rows
+  kSparseStorage = 16,   // reads csr and compressed F (the GPU backends)
+  kGpu = 32,             // runs on an NVIDIA GPU
+  kRrvLoop = 64,         // RRV's loop as it was (backend original)
+};
+SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, std::vector<Layout> layouts,
+                 std::vector<Precision> precisions, Build build, const char* summary) {
+  SolveBackend b{name, summary, std::move(methods), std::move(layouts), std::move(precisions),
+                 (facts & kTolerance) != 0, build.built, build.why_not, build.run};
+  b.any_storage = (facts & kAnyStorage) != 0;
+  b.one_channel = (facts & kOneChannel) != 0;
+  b.distributed = (facts & kDistributed) != 0;
+  b.sparse_storage = (facts & kSparseStorage) != 0;
+  b.gpu = (facts & kGpu) != 0;
+  b.rrv_loop = (facts & kRrvLoop) != 0;
+  return b;
+}
+}  // namespace
 
 const std::vector<SolveBackend>& solve_backends() {
   static const std::vector<Method> kAll = {Method::jacobi, Method::bicgstab, Method::gauss_seidel, Method::sor},
                                    kJacobiBicgstab = {Method::jacobi, Method::bicgstab};
   static const std::vector<Layout> kAosSoa = {Layout::aos, Layout::soa};
   static const std::vector<Precision> kBoth = {Precision::single, Precision::double_};
+  auto built_in = [](BackendRun run) { return Build{true, "", run}; };  // the CPU backends: in every build
   static const std::vector<SolveBackend> list = {
-      {"original", "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element",
-       {Method::jacobi}, {Layout::aos}, {Precision::single}, false, true, "", run_original},
-      {"serial", "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread",
-       kAll, kAosSoa, kBoth, true, true, "",
-       run_kernels<make_serial<float>, make_serial<double>>, true, true},
-      {"openmp", "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
-                 "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)",
-       kAll, kAosSoa, kBoth, true, true, "",
-       run_kernels<make_openmp<float>, make_openmp<double>>, true, true},
-      {"cuda", "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels",
-       kJacobiBicgstab, {Layout::aos}, kBoth, true, GPU_BACKEND(make_cuda), false, false, false, true},
-      {"cublas", "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
-                 "csr float32 by cuSPARSE",
-       kJacobiBicgstab, {Layout::soa}, kBoth, true, GPU_BACKEND(make_cublas), false, false, false, true},
-      {"hybrid", "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged",
-       {Method::jacobi}, {Layout::aos}, kBoth, true, GPU_BACKEND(make_hybrid)},
-      {"mpi", "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
-              "after every product (MPI_Allgatherv), dots by MPI_Allreduce",
-       kJacobiBicgstab, kAosSoa, kBoth, true, MPI_BACKEND, true, true, true},
+      row("original", kFixedStepsOnly | kRrvLoop, {Method::jacobi}, {Layout::aos}, {Precision::single},
+          built_in(run_original),
+          "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element"),
+      row("serial", kTolerance | kAnyStorage | kOneChannel, kAll, kAosSoa, kBoth,
+          built_in(run_kernels<make_serial<float>, make_serial<double>>),
+          "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread"),
+      row("openmp", kTolerance | kAnyStorage | kOneChannel, kAll, kAosSoa, kBoth,
+          built_in(run_kernels<make_openmp<float>, make_openmp<double>>),
+          "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
+          "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)"),
+      row("cuda", kTolerance | kSparseStorage | kGpu, kJacobiBicgstab, {Layout::aos}, kBoth, GPU_BACKEND(make_cuda),
+          "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels"),
+      row("cublas", kTolerance | kSparseStorage | kGpu, kJacobiBicgstab, {Layout::soa}, kBoth,
+          GPU_BACKEND(make_cublas),
+          "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
+          "csr float32 by cuSPARSE"),
+      row("hybrid", kTolerance | kGpu, {Method::jacobi}, {Layout::aos}, kBoth, GPU_BACKEND(make_hybrid),
+          "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged"),
+      row("mpi", kTolerance | kAnyStorage | kOneChannel | kDistributed, kJacobiBicgstab, kAosSoa, kBoth, MPI_BACKEND,
+          "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "
+          "after every product (MPI_Allgatherv), dots by MPI_Allreduce"),
   };
   return list;
 }
@@ -169,7 +204,7 @@ void check_config(const SolveConfig& cfg) {
   if (cfg.omega != 1 && cfg.method != Method::sor)
     throw hpcgi::UsageError("--omega applies to --method sor, not " + to_string(cfg.method) +
                             " (gauss-seidel is sor with omega 1)");
-  if (b->name == "original" && (cfg.history || cfg.stop != StopRule{}))
+  if (b->rrv_loop && (cfg.history || cfg.stop != StopRule{}))
     throw hpcgi::UsageError("backend 'original' runs RRV's loop as it was: fixed steps, no history, no stopping rule");
   if (cfg.steps == 0) {
     if (!b->tolerance)
@@ -185,7 +220,7 @@ void check_config(const SolveConfig& cfg) {
   }
   if (cfg.threads < 0) throw hpcgi::UsageError("threads must be >= 0 (0: the OpenMP default)");
   if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
-  if (cfg.ff_threshold != 0 && b->name != "original")
+  if (cfg.ff_threshold != 0 && !b->rrv_loop)
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");
 }
 

@@ -32,6 +32,8 @@ struct SolveBackend {
   bool one_channel = false;  // solves a grey system as one channel
   bool distributed = false;  // runs on MPI ranks, each holding its block of rows of F (System::rows_begin, rows_end)
   bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
+  bool gpu = false;             // runs on an NVIDIA GPU (--list-backends; the kit's GPU cases)
+  bool rrv_loop = false;        // RRV's loop as it was: no history, no stopping rule; the one that takes ff_threshold
 };
 const std::vector<SolveBackend>& solve_backends();
 

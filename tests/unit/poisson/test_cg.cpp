@@ -66,10 +66,10 @@ template <class T>
 CgRun run(const std::string& backend, long n, double tol, const std::string& variant = "classic") {
   poisson::Config cfg;
   cfg.n = n;
-  cfg.backend = backend;
-  cfg.variant = variant;
+  cfg.backend = poisson::parse_backend(backend);
+  cfg.variant = poisson::parse_variant(variant);
   auto k = poisson::make_kernels<T>(cfg);
-  CgRun r{poisson::run_variant(*k, variant, tol, 100000), {}};
+  CgRun r{poisson::run_variant(*k, cfg.variant, tol, 100000), {}};
   r.x = k->solution();
   return r;
 }
@@ -90,7 +90,7 @@ TEST(Cg, MatchesDenseDirectSolve) {
       const std::string name = b;
       const bool onesweep = name == "openmp onesweep";
       CgRun r = run<double>(onesweep ? "openmp" : b, n, 1e-13, onesweep ? "onesweep" : "classic");
-      EXPECT_EQ(r.res.status, "converged") << b << " n=" << n;
+      EXPECT_EQ(r.res.status, poisson::Status::converged) << b << " n=" << n;
       EXPECT_LT(max_rel_diff(r.x, ref), 1e-11) << b << " n=" << n;
       // In exact arithmetic CG ends in at most as many steps as the matrix has distinct eigenvalues (≤ N²).
       EXPECT_LE(r.res.iterations, n * n) << b << " n=" << n;
@@ -101,7 +101,7 @@ TEST(Cg, MatchesDenseDirectSolve) {
 TEST(Cg, OpenMpMatchesSerialAtN100) {
   CgRun s = run<double>("serial", 100, 1e-6);
   CgRun o = run<double>("openmp", 100, 1e-6);
-  EXPECT_EQ(s.res.status, "converged");
+  EXPECT_EQ(s.res.status, poisson::Status::converged);
   EXPECT_LE(std::abs(s.res.iterations - o.res.iterations), 1);
   EXPECT_LT(max_rel_diff(o.x, s.x), 1e-10);
   EXPECT_NEAR(o.res.error_inf, s.res.error_inf, 1e-10 * s.res.error_inf);
@@ -115,7 +115,7 @@ TEST(Cg, OneSweepMatchesSerialForAnyThreadCount) {
     for (int t : {1, 2, 3, 4, 7}) {
       Threads scope(t);
       CgRun o = run<double>("openmp", n, 1e-6, "onesweep");
-      EXPECT_EQ(o.res.status, "converged") << "n=" << n << " threads=" << t;
+      EXPECT_EQ(o.res.status, poisson::Status::converged) << "n=" << n << " threads=" << t;
       EXPECT_LE(std::abs(s.res.iterations - o.res.iterations), 1) << "n=" << n << " threads=" << t;
       EXPECT_LT(max_rel_diff(o.x, s.x), 1e-10) << "n=" << n << " threads=" << t;
       EXPECT_NEAR(o.res.true_rel_residual, s.res.true_rel_residual, 1e-3 * s.res.true_rel_residual + 1e-15);
@@ -138,7 +138,7 @@ TEST(Cg, OneSweepTakesTheSameStepsAsClassicAtN256) {
 TEST(Cg, OneSweepInFloatConvergesWithAFewMoreIterations) {
   CgRun c = run<float>("openmp", 128, 1e-6, "classic");
   CgRun o = run<float>("openmp", 128, 1e-6, "onesweep");
-  EXPECT_EQ(o.res.status, "converged");
+  EXPECT_EQ(o.res.status, poisson::Status::converged);
   EXPECT_GE(o.res.iterations, c.res.iterations - 1);
   EXPECT_LE(o.res.iterations, 1.3 * c.res.iterations);
   EXPECT_NEAR(o.res.error_inf, c.res.error_inf, 0.01 * c.res.error_inf);
@@ -147,20 +147,22 @@ TEST(Cg, OneSweepInFloatConvergesWithAFewMoreIterations) {
 TEST(Cg, VariantTheBackendLacksIsAUsageError) {
   poisson::Config cfg;
   cfg.n = 8;
-  cfg.backend = "serial";
-  cfg.variant = "onesweep";
+  cfg.backend = poisson::Backend::serial;
+  cfg.variant = poisson::Variant::onesweep;
   EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
-  cfg.backend = "openmp";
-  cfg.variant = "pipelined";
-  EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
-  EXPECT_EQ(poisson::default_variant("openmp", "double"), "onesweep");
-  EXPECT_EQ(poisson::default_variant("openmp", "float"), "classic");
-  EXPECT_EQ(poisson::default_variant("serial", "double"), "classic");
+  EXPECT_THROW(poisson::check_config(cfg), hpcgi::UsageError);
+  cfg.backend = poisson::Backend::openmp;
+  EXPECT_NO_THROW(poisson::check_config(cfg));
+  EXPECT_THROW(poisson::parse_variant("pipelined"), hpcgi::UsageError);
+  using poisson::Backend, poisson::Precision, poisson::Variant;
+  EXPECT_EQ(poisson::default_variant(Backend::openmp, Precision::double_), Variant::onesweep);
+  EXPECT_EQ(poisson::default_variant(Backend::openmp, Precision::single), Variant::classic);
+  EXPECT_EQ(poisson::default_variant(Backend::serial, Precision::double_), Variant::classic);
 }
 
 TEST(Cg, TrueResidualTracksRecursiveInDouble) {
   CgRun s = run<double>("openmp", 200, 1e-8);
-  EXPECT_EQ(s.res.status, "converged");
+  EXPECT_EQ(s.res.status, poisson::Status::converged);
   EXPECT_LE(s.res.rel_residual, 1e-8);
   EXPECT_NEAR(s.res.true_rel_residual, s.res.rel_residual, 0.05 * s.res.rel_residual);
 }
@@ -170,7 +172,7 @@ TEST(Cg, FloatRunsAndItsTrueResidualIsReportedNotHidden) {
   // of the h²-scaled system to follow it: the run must say so through true_rel_residual.
   CgRun f = run<float>("openmp", 256, 1e-6);
   CgRun d = run<double>("openmp", 256, 1e-6);
-  EXPECT_EQ(f.res.status, "converged");
+  EXPECT_EQ(f.res.status, poisson::Status::converged);
   EXPECT_GT(f.res.true_rel_residual, 1e-4);
   EXPECT_LT(d.res.true_rel_residual, 2e-6);
   // The discretisation error still dominates at this N: float's solution is as good as double's within 1%.
@@ -178,7 +180,12 @@ TEST(Cg, FloatRunsAndItsTrueResidualIsReportedNotHidden) {
 }
 
 TEST(Cg, UnknownOrUnbuiltBackendIsAUsageError) {
-  poisson::Config cfg;
-  cfg.backend = "nonsense";
-  EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
+  EXPECT_THROW(poisson::parse_backend("nonsense"), hpcgi::UsageError);
+  for (const auto& b : poisson::backends()) {
+    EXPECT_EQ(poisson::parse_backend(b.name()), b.id);  // the table's rows are in the enum's order
+    if (b.built) continue;
+    poisson::Config cfg;
+    cfg.backend = b.id;
+    EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError) << b.name();
+  }
 }

@@ -72,7 +72,7 @@ class DenseKernels : public poisson::OneSweepKernels<double> {
 
 poisson::CgResult run(const std::string& variant, std::vector<double> A, std::vector<double> b) {
   DenseKernels k(std::move(A), std::move(b));
-  return poisson::run_variant<double>(k, variant, 1e-12, 1000);
+  return poisson::run_variant<double>(k, poisson::parse_variant(variant), 1e-12, 1000);
 }
 
 }  // namespace
@@ -81,7 +81,7 @@ poisson::CgResult run(const std::string& variant, std::vector<double> A, std::ve
 TEST(CgBreakdown, DenseKernelsConvergeOnSpd) {
   for (const char* variant : {"classic", "onesweep"}) {
     const poisson::CgResult r = run(variant, {1, 0, 0, 2}, {1, 1});
-    EXPECT_EQ(r.status, "converged") << variant;
+    EXPECT_EQ(r.status, poisson::Status::converged) << variant;
     EXPECT_EQ(r.iterations, 2) << variant;
   }
 }
@@ -91,11 +91,11 @@ TEST(CgBreakdown, IndefiniteMatrixStopsAtOnce) {
   for (const char* variant : {"classic", "onesweep"}) {
     SCOPED_TRACE(variant);
     poisson::CgResult r = run(variant, {1, 0, 0, -1}, {1, 1});
-    EXPECT_EQ(r.status, "breakdown");
+    EXPECT_EQ(r.status, poisson::Status::breakdown);
     EXPECT_EQ(r.iterations, 0);
     EXPECT_NE(r.breakdown.find("p·Ap = 0.000000 at iteration 1"), std::string::npos) << r.breakdown;
     r = run(variant, {1, 0, 0, -3}, {1, 1});
-    EXPECT_EQ(r.status, "breakdown");
+    EXPECT_EQ(r.status, poisson::Status::breakdown);
     EXPECT_NE(r.breakdown.find("p·Ap = -2.000000 at iteration 1"), std::string::npos) << r.breakdown;
   }
 }
@@ -105,7 +105,7 @@ TEST(CgBreakdown, IndefiniteMatrixStopsAtOnce) {
 TEST(CgBreakdown, IndefiniteMatrixStopsLaterToo) {
   for (const char* variant : {"classic", "onesweep"}) {
     const poisson::CgResult r = run(variant, {1, 0, 0, -0.5}, {1, 1});
-    EXPECT_EQ(r.status, "breakdown") << variant;
+    EXPECT_EQ(r.status, poisson::Status::breakdown) << variant;
     EXPECT_EQ(r.iterations, 1) << variant;
     EXPECT_NE(r.breakdown.find("at iteration 2"), std::string::npos) << r.breakdown;
   }
@@ -115,7 +115,7 @@ TEST(CgBreakdown, NanStopsAtOnce) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (const char* variant : {"classic", "onesweep"}) {
     const poisson::CgResult r = run(variant, {1, 0, 0, nan}, {1, 1});
-    EXPECT_EQ(r.status, "breakdown") << variant;
+    EXPECT_EQ(r.status, poisson::Status::breakdown) << variant;
     EXPECT_NE(r.breakdown.find("p·Ap = nan"), std::string::npos) << r.breakdown;
   }
 }

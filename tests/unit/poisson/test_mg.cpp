@@ -19,9 +19,9 @@ namespace {
 poisson::Config config(const std::string& backend, long n, const std::string& precond = "mg") {
   poisson::Config cfg;
   cfg.n = n;
-  cfg.backend = backend;
-  cfg.precond = precond;
-  cfg.variant = "classic";
+  cfg.backend = poisson::parse_backend(backend);
+  cfg.precond = poisson::parse_precond(precond);
+  cfg.variant = poisson::Variant::classic;
   return cfg;
 }
 
@@ -61,7 +61,7 @@ TEST(Mg, IterationsAreFewAndFlatInNOnEveryCpuBackend) {
   std::vector<long> iters;
   for (long n : {31L, 32L, 63L, 64L, 127L, 128L, 255L, 256L, 511L, 512L, 1023L, 1024L}) {
     const poisson::CgResult s = solve("serial", n);
-    EXPECT_EQ(s.status, "converged") << n;
+    EXPECT_EQ(s.status, poisson::Status::converged) << n;
     EXPECT_LE(s.iterations, 12) << n;
     EXPECT_LE(s.true_rel_residual, 1e-6) << n;
     for (int t : {1, 2, 3}) {
@@ -78,7 +78,7 @@ TEST(Mg, IterationsAreFewAndFlatInNOnEveryCpuBackend) {
 TEST(Mg, AnyNFromOne) {
   for (long n = 1; n <= 20; ++n) {
     const poisson::CgResult s = solve("serial", n, 1e-10);
-    EXPECT_EQ(s.status, "converged") << n;
+    EXPECT_EQ(s.status, poisson::Status::converged) << n;
     EXPECT_LE(s.iterations, 12) << n;
     const poisson::CgResult c = solve("serial", n, 1e-10, "none");
     EXPECT_NEAR(s.error_inf, c.error_inf, 1e-8 * c.error_inf) << n;  // the same discrete solution
@@ -104,7 +104,7 @@ TEST(Mg, ErrorEqualsPlainCgsToThreeDigits) {
   Threads th(2);
   for (long n : {512L, 1024L}) {
     poisson::Config cfg = config("openmp", n, "none");
-    cfg.variant = "onesweep";
+    cfg.variant = poisson::Variant::onesweep;
     auto k = poisson::make_kernels<double>(cfg);
     const poisson::CgResult plain = poisson::run_config(*k, cfg, 1e-6, 100000);
     const poisson::CgResult mg = solve("openmp", n);
@@ -128,18 +128,20 @@ TEST(Mg, DiscretisationErrorIsSecondOrder) {
 TEST(Mg, FloatConverges) {
   const poisson::CgResult f = solve<float>("openmp", 256);
   const poisson::CgResult d = solve("openmp", 256);
-  EXPECT_EQ(f.status, "converged");
+  EXPECT_EQ(f.status, poisson::Status::converged);
   EXPECT_LE(f.iterations, d.iterations + 2);
   EXPECT_NEAR(f.error_inf, d.error_inf, 0.1 * d.error_inf);
 }
 
 TEST(Mg, PreconditionerABackendLacksIsAUsageError) {
-  EXPECT_THROW(poisson::make_kernels<double>(config("openmp", 8, "ilu")), hpcgi::UsageError);
+  EXPECT_THROW(poisson::parse_precond("ilu"), hpcgi::UsageError);
   poisson::Config cfg = config("openmp", 8);
-  cfg.variant = "onesweep";
+  cfg.variant = poisson::Variant::onesweep;
   EXPECT_THROW(poisson::make_kernels<double>(cfg), hpcgi::UsageError);
-  EXPECT_EQ(poisson::default_variant("openmp", "double", "mg"), "classic");
-  EXPECT_EQ(poisson::default_variant("openmp", "double", "none", "fmg"), "classic");
+  using poisson::Backend, poisson::Precision, poisson::Precond, poisson::Variant;
+  EXPECT_EQ(poisson::default_variant(Backend::openmp, Precision::double_, Precond::mg), Variant::classic);
+  EXPECT_EQ(poisson::default_variant(Backend::openmp, Precision::double_, Precond::none, poisson::Method::fmg),
+            Variant::classic);
 #ifdef HAVE_CUDA
   EXPECT_THROW(poisson::make_kernels<double>(config("cublas1", 8)), hpcgi::UsageError);
 #endif
