@@ -62,7 +62,7 @@ SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
 SUITE_relight    := common scene formfactor solve relight
 SUITE_app        := common scene formfactor solve render app dist relight
-SUITES := $(notdir $(wildcard tests/unit/*))
+SUITES := $(notdir $(patsubst %/,%,$(wildcard tests/unit/*/)))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
 mods = $(call obj,$(foreach m,$(1),$(MOD_$(m))))
