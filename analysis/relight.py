@@ -25,20 +25,28 @@ def _solved(per_frame):
     return [f for f in per_frame if f.get("kind") == "solved"]
 
 
+def _timed(rows, column):
+    """The timing cell (median [95% interval] n over the runs) of one column of a case's records."""
+    return cell(summarise(rows.assign(t=rows[column].astype(float)), ["scene_id"], "t").iloc[0])
+
+
 def _wall(rows):
-    """Mean warm iterations, mean cold iterations, solved-frame p50 ms and worst error of wall-frame records."""
+    """Mean warm iterations, mean cold iterations, solved-frame p50 ms (a cell over runs) and worst error of wall-frame
+    records, and the solved frames within the budget over all of its runs."""
     if rows.empty:
         return None
-    r = rows.iloc[-1]
-    fr = _solved(r["result.per_frame"])
-    budget = r.get("params.frame_budget_ms")
-    budget = float(budget) if budget is not None and budget == budget else float("inf")
-    warm = [f["iterations"] for f in fr if "cold_iterations" in f]
-    cold = [f["cold_iterations"] for f in fr if "cold_iterations" in f]
+    warm, cold, within, solved = [], [], 0, 0
+    for _, r in rows.iterrows():
+        fr = _solved(r["result.per_frame"])
+        budget = r.get("params.frame_budget_ms")
+        budget = float(budget) if budget is not None and budget == budget else float("inf")
+        warm += [f["iterations"] for f in fr if "cold_iterations" in f]
+        cold += [f["cold_iterations"] for f in fr if "cold_iterations" in f]
+        within += sum(f.get("status") == "converged" and f.get("ms", float("inf")) <= budget for f in fr)
+        solved += len(fr)
     return dict(warm=np.mean(warm) if warm else np.nan, cold=np.mean(cold) if cold else np.nan,
-                p50=r["result.latency_solved.p50_ms"], worst=r["result.worst_error"],
-                within=sum(f.get("status") == "converged" and f.get("ms", float("inf")) <= budget for f in fr),
-                solved=len(fr))
+                p50=_timed(rows, "result.latency_solved.p50_ms"), worst=rows["result.worst_error"].max(),
+                within=within, solved=solved)
 
 
 def scenes_table(preset):
@@ -54,14 +62,13 @@ def scenes_table(preset):
         walls = r[_col(r, "params.frames").notna()]
         row = {"scene": int(sid), "patches": int(r["params.patches"].iloc[0])}
         if len(mixes):
-            m = mixes.iloc[-1]
-            solved = r[_col(r, "result.basis.loaded") == False]  # noqa: E712 (the case that solved the basis)
-            b = solved.iloc[-1] if len(solved) else m
-            row.update(lights=len(m["result.lights"]), basis_steps=b["result.basis.iterations"],
-                       basis_s=b["result.basis.seconds"], frame_p50_ms=m["result.latency_basis.p50_ms"],
-                       frame_p99_ms=m["result.latency_basis.p99_ms"],
-                       relights_per_s=1e3 / m["result.latency_basis.p50_ms"],
-                       worst_error=m["result.worst_error"])
+            solved = r[_col(r, "result.basis.loaded") == False]  # noqa: E712 (the runs that solved the basis)
+            p50 = _timed(mixes, "result.latency_basis.p50_ms")
+            row.update(lights=len(mixes["result.lights"].iloc[-1]),
+                       basis_steps=solved["result.basis.iterations"].iloc[-1] if len(solved) else "—",
+                       basis_s=_timed(solved, "result.basis.seconds") if len(solved) else "—", frame_p50_ms=p50,
+                       frame_p99_ms=_timed(mixes, "result.latency_basis.p99_ms"), relights_per_s=1e3 / value(p50),
+                       worst_error=mixes["result.worst_error"].max())
         c = cold[cold["scene_id"] == sid]
         if len(c):
             t = run_time(c)
@@ -70,7 +77,7 @@ def scenes_table(preset):
             consistency.quote(f"scene {int(sid)}: Jacobi solve to 1e-6, run time (setup + solve, s)",
                               f"Relighting ({preset}), scene {int(sid)}, cold_solve_s", t, c)
             if "frame_p50_ms" in row:
-                row["cold_over_frame"] = value(row["cold_solve_s"]) * 1e3 / row["frame_p50_ms"]
+                row["cold_over_frame"] = value(row["cold_solve_s"]) * 1e3 / value(row["frame_p50_ms"])
         for label, sel in (("jacobi", (walls["params.method"] == "jacobi") & (walls["params.ff_precision"] == "float32")),
                            ("bicgstab", walls["params.method"] == "bicgstab")):
             w = _wall(walls[sel])
@@ -83,11 +90,13 @@ def scenes_table(preset):
     t = pd.DataFrame(rows)
     notes = ["A basis frame is the mix of one float64 solution per light (one thread, rendering excluded); its error is "
              "the largest |B - B_ref| over the largest |B_ref| against a cold float64 solve (1e-12) of the same "
-             "emissions, every 20th frame. cold_solve_s: Jacobi to 1e-6 in float from RRV's start, the solve a frame "
+             "emissions, every 20th frame, the worst over all runs. Each time is the median [95% interval] n over "
+             "the case's runs of the run's own figure (frame_p50_ms: the median frame of a run; basis_s: the runs "
+             "that solved the basis rather than loaded it, — where every run loaded it). cold_solve_s: Jacobi to 1e-6 in float from RRV's start, the solve a frame "
              "would need without the basis, timed as Table 4.2 times a run (setup + solve; median [95% interval] n). *_warm_over_cold: iterations of the wall frames (a wall's reflectivity "
              "times 0.9, then back) started from the previous frame's B, over the same solve started cold, to 1e-4. "
              "f16: Jacobi with F in float16 to 1e-3 under a 50 ms budget; within budget: the solved frames that "
-             "converged within it (a frame stopped by the budget is not). Times are this machine's, under whatever else ran on it."]
+             "converged within it, over all runs (a frame stopped by the budget is not). Times are this machine's, under whatever else ran on it."]
     return write("relight", preset, f"Relighting ({preset})", t, [*notes, settings.line(df, preset), protocol.note(df["file"])])
 
 
