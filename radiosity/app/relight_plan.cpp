@@ -6,6 +6,7 @@
 #include "common/timer.hpp"
 #include "radiosity/app/relight_phases.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/solve/multi_solve.hpp"
 #include "radiosity/solve/storage_choice.hpp"
 
 namespace radiosity::app {
@@ -20,6 +21,11 @@ RelightPlan plan_relight(const RelightArgs& a) {
   // or written, by the library's rules (solve.hpp: check_config, require_storage).
   check_config(a.cfg);
   const SolveBackend& b = require_backend(a.cfg.backend);
+  // The light basis runs on the backend's k-right-hand-side product (multi_solve.hpp): one without is refused here,
+  // before anything is read or a device is asked for.
+  if (!has_multi_rhs(b.name))
+    throw hpcgi::UsageError("relight: --backend " + b.name + " has no k-right-hand-side product (the light basis " +
+                            "runs on " + multi_rhs_backends() + ")");
   if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
   require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.
@@ -84,6 +90,14 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
   else if (a.bench_rhs == 0)
     in.frames = read_frames(a.frames, in.m, in.named, a.load.allow_reflectivity_ge_1);
   in.cam = parse_view(a.view, in.m);
+  // Backend mpi solves the light basis on the ranks; a frame that changes a reflectivity would be a solve of rank 0
+  // alone, which that backend does not run.
+  if (require_backend(a.cfg.backend).distributed)
+    for (size_t k = 0; k < in.frames.size(); ++k)
+      if (!in.frames[k].scene_reflectivity)
+        throw hpcgi::UsageError("relight --backend " + a.cfg.backend + ": frame " + std::to_string(k) +
+                                " changes a reflectivity; on MPI ranks relight serves frames of lights only (run "
+                                "reflectivity frames with --backend openmp)");
   // Every frame's picture passes the output check with the run's other outputs, before anything is computed: no
   // input (the form factors, the scene, its meshes, the basis) and no device or FIFO named PREFIX_0000.png is replaced.
   if (!a.png_frames.empty()) {

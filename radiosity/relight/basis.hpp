@@ -2,9 +2,9 @@
 // any mix of the lights' intensities and colours is the same mix of one solution per light, channel by channel:
 //   E = Σ_l s_l c_l ⊙ E_l   =>   B = Σ_l s_l c_l ⊙ B_l,   A B_l = E_l  (A_c = I - diag(ρ_c) F),
 // E_l the scene's emission on light l's patches (0 elsewhere), s_l its intensity and c_l its colour. The k solves
-// run together, Jacobi in float64 with all k right-hand sides in one pass over F's row blocks per step (linalg.hpp's
-// multi_affine_matvec; one light: the solvers' product over F as stored), until every light's every channel has a
-// relative residual <= tol. A frame is then
+// run together, Jacobi in float64 with all k right-hand sides in one pass over F per step (the driver's solve_multi:
+// methods/multi_rhs.hpp over the k-product of the backend, serial, openmp or mpi), until every light's every channel
+// has a relative residual <= tol. A frame is then
 // O(patches × lights), exact up to the basis' own residual.
 #pragma once
 #include <string>
@@ -28,6 +28,7 @@ struct LightBasis {
   std::vector<std::vector<double>> B;  // per light: n × 3, patch-major (r, g, b of patch 0, then patch 1, ...)
   std::vector<float> packed;           // the same as float, light after light: what a frame reads (pack())
   long iterations = 0;                 // Jacobi steps of the solve (0 when read from a file)
+  std::string backend;                 // the backend that solved it (empty when read from a file)
   double tol = 0;
   double max_residual = 0;             // over lights and channels: ‖E_l - A B_l‖ / ‖E_l‖ (absolute where E_l,c = 0)
   double seconds = 0;
@@ -38,6 +39,7 @@ struct BasisOptions {
   double tol = 1e-7;
   long max_iter = 100000;
   int threads = 0;  // 0: the OpenMP default
+  std::string backend = "openmp";  // a backend with a k-right-hand-side product (multi_solve.hpp)
 };
 
 // Solves the basis of these lights on the mesh's reflectivities and dense F (any stored values; the relighting
