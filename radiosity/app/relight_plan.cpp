@@ -19,13 +19,13 @@ RelightPlan plan_relight(const RelightArgs& a) {
   p.values = parse_ff_values(a.ff_precision);
   // The reflectivity frames' configuration and the storage their backend reads are checked before anything is read
   // or written, by the library's rules (solve.hpp: check_config, require_storage).
-  check_config(a.cfg);
   const SolveBackend& b = require_backend(a.cfg.backend);
   // The light basis runs on the backend's k-right-hand-side product (multi_solve.hpp): one without is refused here,
   // before anything is read or a device is asked for.
   if (!has_multi_rhs(b.name))
     throw hpcgi::UsageError("relight: --backend " + b.name + " has no k-right-hand-side product (the light basis " +
                             "runs on " + multi_rhs_backends() + ")");
+  check_config(a.cfg);
   if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
   require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.

@@ -42,7 +42,6 @@ LightBasis solve_light_basis(const Mesh& m, const FFMatrixView& F, const std::ve
   basis.tol = opt.tol;
   basis.iterations = r.iterations;
   basis.max_residual = r.max_residual;
-  basis.backend = opt.backend;
   for (size_t l = 0; l < k; ++l) {
     basis.lights.push_back(lights[l].name);
     std::vector<double>& flat = basis.B.emplace_back(3 * n);

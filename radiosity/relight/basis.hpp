@@ -28,7 +28,6 @@ struct LightBasis {
   std::vector<std::vector<double>> B;  // per light: n × 3, patch-major (r, g, b of patch 0, then patch 1, ...)
   std::vector<float> packed;           // the same as float, light after light: what a frame reads (pack())
   long iterations = 0;                 // Jacobi steps of the solve (0 when read from a file)
-  std::string backend;                 // the backend that solved it (empty when read from a file)
   double tol = 0;
   double max_residual = 0;             // over lights and channels: ‖E_l - A B_l‖ / ‖E_l‖ (absolute where E_l,c = 0)
   double seconds = 0;
