@@ -25,6 +25,9 @@ RelightPlan plan_relight(const RelightArgs& a) {
   if (!has_multi_rhs(b.name))
     throw hpcgi::UsageError("relight: --backend " + b.name + " has no k-right-hand-side product (the light basis " +
                             "runs on " + multi_rhs_backends() + ")");
+  if (b.distributed && a.bench_rhs > 0)
+    throw hpcgi::UsageError("relight --bench-rhs times one process's k-right-hand-side product; --backend " + b.name +
+                            " is for the light basis (bench it with serial or openmp)");
   check_config(a.cfg);
   if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
   require_storage(b, p.storage.value_or(FFStorage::dense), p.values);

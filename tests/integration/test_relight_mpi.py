@@ -65,6 +65,15 @@ def test_mpi_refuses_a_reflectivity_frame_in_one_line(ff):
     assert len(messages(p)) == 1 and "frame 0 changes a reflectivity" in messages(p)[0], p.stderr
 
 
+@pytest.mark.skipif(not MPI_BUILT, reason="bin/radiosity built without MPI, or no mpirun")
+def test_bench_rhs_is_refused_on_mpi(ff):
+    _, f = ff
+    p = radiosity("relight", SCENE2, "--ff", f, "--bench-rhs", "2", "--passes", "1", "--backend", "mpi", "--quiet",
+                  np_=2)
+    assert p.returncode == 2 and p.stdout == "", p.stdout
+    assert len(messages(p)) == 1 and "--bench-rhs times one process's" in messages(p)[0], p.stderr
+
+
 @pytest.mark.parametrize("backend", ["cuda", "cublas", "hybrid", "original"])
 def test_a_backend_without_a_k_product_is_refused_in_one_line(ff, backend):
     d, f = ff
