@@ -7,6 +7,7 @@
 // order of additions over the zero columns a block holds for the other ranks' rows: the answers agree to rounding.
 #include <mpi.h>
 
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <type_traits>
@@ -29,7 +30,8 @@ class MpiMultiKernels final : public MultiKernels<T> {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
     if (!holds_all_rows(sys))
-      throw hpcgi::Agreed<hpcgi::UsageError>("backend mpi's k-right-hand-side product needs every row of F on every rank");
+      throw hpcgi::Agreed<hpcgi::UsageError>(
+          "backend mpi's k-right-hand-side product needs every row of F on every rank");
     const size_t blocks = (n_ + kBlockRows - 1) / kBlockRows;
     for (int r = 0; r <= size_; ++r) {
       const size_t row = std::min(n_, blocks * size_t(r) / size_t(size_) * kBlockRows);
