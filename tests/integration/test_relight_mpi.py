@@ -11,6 +11,7 @@ import pytest
 from conftest import BIN, ROOT, run
 from mpi_files import MPI_BUILT, messages, radiosity, record
 
+SCENE1 = ROOT / "radiosity" / "scenes" / "scene1.xml"
 SCENE2 = ROOT / "radiosity" / "scenes" / "scene2.xml"
 
 
@@ -33,20 +34,32 @@ def ff(tmp_path_factory):
     return d, f
 
 
-def relight(f, *args, np_=None):
-    return radiosity("relight", SCENE2, "--ff", f, "--random-frames", "4", "--seed", "7", "--record-patches", "400",
+@pytest.fixture(scope="module")
+def ff1(tmp_path_factory):
+    d = tmp_path_factory.mktemp("relight-mpi-1")
+    f = d / "scene1.ff"
+    record(radiosity("formfactors", SCENE1, "-o", f, "--hemicube", "32", "--json", "--quiet"))
+    return d, f
+
+
+def relight(scene, f, *args, np_=None):
+    return radiosity("relight", scene, "--ff", f, "--random-frames", "4", "--seed", "7", "--record-patches", "400",
                      "--json", "--quiet", *map(str, args), np_=np_)
 
 
+# scene2: two lights (the k-product over row blocks, k = 2); scene1: one light (k = 1); 3 ranks: an uneven split.
 @pytest.mark.skipif(not MPI_BUILT, reason="bin/radiosity built without MPI, or no mpirun")
-def test_mpi_basis_and_frames_equal_openmp_within_1e6(ff):
-    d, f = ff
-    omp = record(relight(f, "--backend", "openmp", "--threads", "2", "--basis", d / "omp.basis"))
-    mpi = record(relight(f, "--backend", "mpi", "--basis", d / "mpi.basis", np_=2))
-    assert mpi["params"]["backend"] == "mpi" and mpi["provenance"]["mpi_ranks"] == 2
-    assert not mpi["result"]["basis"]["loaded"] and mpi["result"]["basis"]["max_residual"] <= 1e-7
-    a, b = read_basis(d / "mpi.basis"), read_basis(d / "omp.basis")
-    assert a.shape == b.shape and a.shape[0] == 2  # scene2's two lights: the k-product, k = 2
+@pytest.mark.parametrize("scene,lights,ranks", [("scene2", 2, 2), ("scene2", 2, 3), ("scene1", 1, 2)])
+def test_mpi_basis_and_frames_equal_openmp_within_1e6(ff, ff1, scene, lights, ranks):
+    d, f = ff if scene == "scene2" else ff1
+    path = SCENE2 if scene == "scene2" else SCENE1
+    omp = record(relight(path, f, "--backend", "openmp", "--threads", "2", "--basis", d / f"omp{ranks}.basis"))
+    mpi = record(relight(path, f, "--backend", "mpi", "--basis", d / f"mpi{ranks}.basis", np_=ranks))
+    assert mpi["params"]["backend"] == "mpi" and mpi["provenance"]["mpi_ranks"] == ranks
+    assert not omp["result"]["basis"]["loaded"] and not mpi["result"]["basis"]["loaded"]
+    assert mpi["result"]["basis"]["max_residual"] <= 1e-7
+    a, b = read_basis(d / f"mpi{ranks}.basis"), read_basis(d / f"omp{ranks}.basis")
+    assert a.shape == b.shape and a.shape[0] == lights
     assert rel_diff(a, b) <= 1e-6
     assert abs(mpi["result"]["basis"]["iterations"] - omp["result"]["basis"]["iterations"]) <= 1
     frames = [(np.array(x["radiosity"]), np.array(y["radiosity"]))
