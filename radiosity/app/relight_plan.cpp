@@ -29,6 +29,14 @@ RelightPlan plan_relight(const RelightArgs& a) {
     throw hpcgi::UsageError("relight --bench-rhs times one process's k-right-hand-side product; --backend " + b.name +
                             " is for the light basis (bench it with serial or openmp)");
   check_config(a.cfg);
+  BasisOptions basis;  // the light basis's solve, by the same rules (its --basis-tol within double's reach)
+  basis.tol = a.basis_tol;
+  basis.backend = b.name;
+  try {
+    check_config(basis_config(basis));
+  } catch (const hpcgi::UsageError& e) {
+    throw hpcgi::UsageError(std::string("--basis-tol (the light basis's solve, in float64): ") + e.what());
+  }
   if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
   require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.

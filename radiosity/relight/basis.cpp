@@ -15,6 +15,17 @@ void LightBasis::pack() {
     for (size_t j = 0; j < 3 * n; ++j) packed[l * 3 * n + j] = float(B[l][j]);
 }
 
+SolveConfig basis_config(const BasisOptions& opt) {
+  SolveConfig cfg;  // Jacobi in float64, every light's every channel to opt.tol, B_0 = E_l
+  cfg.method = Method::jacobi;
+  cfg.precision = Precision::double_;
+  cfg.backend = opt.backend;
+  cfg.tol = opt.tol;
+  cfg.max_iter = opt.max_iter;
+  cfg.threads = opt.threads;
+  return cfg;
+}
+
 LightBasis solve_light_basis(const Mesh& m, const FFMatrixView& F, const std::vector<NamedEntity>& lights,
                              const BasisOptions& opt) {
   hpcgi::Timer t;
@@ -25,18 +36,14 @@ LightBasis solve_light_basis(const Mesh& m, const FFMatrixView& F, const std::ve
     std::vector<Rgb>& e = E.emplace_back(n, Rgb{0, 0, 0});
     for (size_t i : lights[l].patches) e[i] = m.patches[i].emission;
   }
-  SolveConfig cfg;  // Jacobi in float64, every light's every channel to opt.tol, B_0 = E_l
-  cfg.method = Method::jacobi;
-  cfg.precision = Precision::double_;
-  cfg.backend = opt.backend;
-  cfg.tol = opt.tol;
-  cfg.max_iter = opt.max_iter;
-  cfg.threads = opt.threads;
-  const MultiSolveResult r = solve_multi(make_system(m, F), E, cfg);
-  if (r.status == SolveStatus::nonfinite) throw hpcgi::NumericalError("light basis: " + r.detail);
+  const MultiSolveResult r = solve_multi(make_system(m, F), E, basis_config(opt));
+  // Every rank of backend mpi reaches the same status (its residuals are summed over the ranks): agreed, so that
+  // rank 0 alone reports it.
+  using Failed = hpcgi::Agreed<hpcgi::NumericalError>;
+  if (r.status == SolveStatus::nonfinite) throw Failed("light basis: " + r.detail);
   if (r.status != SolveStatus::converged)
-    throw hpcgi::NumericalError("light basis: relative residual " + std::to_string(r.max_residual) + " after " +
-                                std::to_string(opt.max_iter) + " Jacobi steps, not " + std::to_string(opt.tol));
+    throw Failed("light basis: relative residual " + std::to_string(r.max_residual) + " after " +
+                 std::to_string(opt.max_iter) + " Jacobi steps, not " + std::to_string(opt.tol));
   LightBasis basis;
   basis.n = n;
   basis.tol = opt.tol;

@@ -12,6 +12,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/relight/entities.hpp"
+#include "radiosity/solve/config.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity::relight {
@@ -40,6 +41,10 @@ struct BasisOptions {
   int threads = 0;  // 0: the OpenMP default
   std::string backend = "openmp";  // a backend with a k-right-hand-side product (multi_solve.hpp)
 };
+
+// The driver's configuration of the basis's solve (solve_multi): what relight's plan checks (check_config) before
+// anything is read.
+SolveConfig basis_config(const BasisOptions& opt);
 
 // Solves the basis of these lights on the mesh's reflectivities and dense F (any stored values; the relighting
 // uses the file's float32). Throws hpcgi::NumericalError when a light's solve does not converge (Jacobi needs

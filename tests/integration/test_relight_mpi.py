@@ -100,3 +100,14 @@ def test_a_backend_without_a_k_product_is_refused_in_one_line(ff, backend):
     assert (f"relight: --backend {backend} has no k-right-hand-side product (the light basis runs on serial, openmp"
             in lines[0]) or "this build has no CUDA" in lines[0], lines
     assert not basis.exists()
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_an_unreachable_basis_tol_is_refused_in_one_line(ff, ranks):
+    if ranks and not MPI_BUILT:
+        pytest.skip("bin/radiosity built without MPI, or no mpirun")
+    _, f = ff
+    p = radiosity("relight", SCENE2, "--ff", f, "--random-frames", "1", "--basis-tol", "1e-300", "--quiet",
+                  *(["--backend", "mpi"] if ranks else []), np_=ranks)
+    assert p.returncode == 2 and p.stdout == "", p.stdout
+    assert len(messages(p)) == 1 and "--basis-tol" in messages(p)[0] and "double" in messages(p)[0], p.stderr
