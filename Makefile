@@ -37,8 +37,9 @@ LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-r
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
 # one-process version of its collectives, and the files that only exist for MPI are left out.
-MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/dist/ff_mpi.cpp
-MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/dist/ff_mpi.cpp
+MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp \
+               radiosity/dist/ff_mpi.cpp
+MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp radiosity/dist/ff_mpi.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
 MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp

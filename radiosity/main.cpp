@@ -5,6 +5,7 @@
 //   solve        solve B = E + ρ ⊙ F B with a method, layout, backend and precision; write the scene, pictures and
 //                a record; check the answer against the serial float64 result (--backend mpi: on MPI ranks)
 //   relight      frames of new lights (from the light basis) and reflectivities (warm solves) over fixed form factors
+//                (--backend mpi: the light basis on MPI ranks)
 //   web          one self-contained HTML page that relights the scene from its light basis in WebGL
 #include <omp.h>
 
@@ -46,26 +47,32 @@ int main(int argc, char** argv) {
   hpcgi::record::set_command_line(argc, argv);
   if (!hpcgi::parse_cli(app, argc, argv, code)) return code;
 
-  // MPI: the form factors under any MPI launcher (each rank its rows), a solve with --backend mpi. Everything else
-  // runs as one process and refuses to be one of several ranks, which would each do the whole run.
+  // MPI: the form factors under any MPI launcher (each rank its rows), a solve or relight (its light basis) with
+  // --backend mpi. Everything else runs as one process and refuses to be one of several ranks, which would each do
+  // the whole run.
   const bool ff_cmd = app.got_subcommand("formfactors"), solve_cmd = app.got_subcommand("solve");
-  const bool mpi_solve = solve_cmd && solve.cfg.backend == "mpi";
+  const bool relight_cmd = app.got_subcommand("relight");
+  const bool mpi_solve = (solve_cmd && solve.cfg.backend == "mpi") || (relight_cmd && relight.cfg.backend == "mpi");
   const bool launched = hpcgi::launcher_world_size() > 0;
   const bool want_mpi = hpcgi::comm::built() && ((ff_cmd && launched) || mpi_solve);
   int status = hpcgi::run_main("radiosity", [&]() -> int {
     if (hpcgi::launched_by_mpirun_with_many_ranks() && !want_mpi) {
       if (!hpcgi::comm::built() && (ff_cmd || mpi_solve))
         throw hpcgi::UsageError("this bin/radiosity was built without MPI (no mpicxx): it runs as one process");
-      throw hpcgi::UsageError(solve_cmd ? "backend '" + solve.cfg.backend + "' runs as one process; use --backend mpi "
-                                          "under mpirun"
-                                        : std::string("'info' runs as one process; run it without mpirun"));
+      if (solve_cmd || relight_cmd)
+        throw hpcgi::UsageError("backend '" + (solve_cmd ? solve.cfg.backend : relight.cfg.backend) +
+                                "' runs as one process; use --backend mpi under mpirun");
+      throw hpcgi::UsageError("'info' runs as one process; run it without mpirun");
     }
     return 0;
   });
   if (status != 0) return status;
   // One OpenMP thread per rank by default, as bin/poisson does: P ranks on a node would otherwise start P times
   // as many threads as it has cores.
-  const int* threads = ff_cmd ? &ff.threads : solve_cmd ? &solve.threads : &info.threads;  // others: one process
+  const int* threads = ff_cmd        ? &ff.threads
+                       : solve_cmd   ? &solve.threads
+                       : relight_cmd ? &relight.threads
+                                     : &info.threads;  // others: one process
   if (want_mpi && *threads == 0 && !std::getenv("OMP_NUM_THREADS")) omp_set_num_threads(1);
   hpcgi::comm::Session session(want_mpi);  // MPI_Finalize when main returns, after errors are reported
   return hpcgi::run_main("radiosity", [&]() -> int {

@@ -91,7 +91,8 @@ struct RelightArgs : SceneArgs {
   long random_frames = 0;
   long seed = 1;
   double basis_tol = 1e-7;
-  SolveConfig cfg;                       // the reflectivity frames' solves (cfg.tol: --tol)
+  SolveConfig cfg;                       // the reflectivity frames' solves (cfg.tol: --tol); cfg.backend: the
+                                         //   light basis's too (a backend with a k-right-hand-side product)
   std::string ff_precision = "float32";  // how the reflectivity frames' F is stored
   std::string storage = "auto";          // F's storage (basis, frames, bench): auto | dense | csr | compressed | runs
   double frame_budget_ms = 0;

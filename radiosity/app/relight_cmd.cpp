@@ -2,7 +2,8 @@
 // Frames that change only lights are mixed from the light basis (radiosity/relight/basis.hpp); frames that change a
 // reflectivity are solved, warm-started from the previous frame's B. Per frame: time, iterations, residual and,
 // every --check-every K frames, the error against a cold float64 solve of that frame.
-// --bench-rhs K times linalg.hpp's product with K right-hand sides instead (make bench).
+// --bench-rhs K times the backend's product with K right-hand sides instead (make bench; the driver's
+// bench_multi_product).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <optional>
 
 #include "common/cli.hpp"
+#include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/record.hpp"
 #include "common/timer.hpp"
@@ -20,92 +22,53 @@
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
 #include "radiosity/render/camera.hpp"
-#include "radiosity/solve/host/exec.hpp"
-#include "radiosity/solve/host/linalg.hpp"
+#include "radiosity/solve/multi_solve.hpp"
 
 namespace radiosity::app {
 namespace {
 
 using namespace radiosity::relight;
 
-// The product with k right-hand sides, timed (make bench): passes products after one untimed warm-up.
+// The product with k right-hand sides, timed (make bench): passes products after one untimed warm-up, through the
+// driver (bench_multi_product) on the frames' F and the backend's k-product in float.
 int bench_product(const RelightArgs& a, const Mesh& m, const FFMatrixView& view, double bytes, nlohmann::json& rec) {
   const size_t n = m.size(), k = size_t(a.bench_rhs);
-  const OpenMPExec ex(a.threads);
-  std::vector<Rgb> rho_host(n), e(n);
-  for (size_t i = 0; i < n; ++i) rho_host[i] = m.patches[i].reflectivity, e[i] = m.patches[i].emission;
-  const std::vector<int32_t> rows = dense_rows_to_compute(rho_host);
-  Soa<float> rho(n);
-  load(ex, rho, rho_host);
-  std::vector<Soa<float>> X, Y, E, X1, Y1, E1;  // X1 ...: the first right-hand side alone (k = 1)
-  for (size_t q = 0; q < k; ++q) {
-    std::vector<Rgb> x(n);
+  const System sys = make_system(m, view);
+  std::vector<std::vector<Rgb>> X(k, std::vector<Rgb>(n));
+  for (size_t q = 0; q < k; ++q)
     for (size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) x[i][c] = e[i][c] + 0.01 * double((i * 7 + q * 13 + c) % 101);
-    X.emplace_back(n), Y.emplace_back(n), E.emplace_back(n);
-    load(ex, X.back(), x), load(ex, E.back(), e), load(ex, Y.back(), x);
-    if (q == 0) {
-      X1.emplace_back(n), Y1.emplace_back(n), E1.emplace_back(n);
-      load(ex, X1.back(), x), load(ex, E1.back(), e), load(ex, Y1.back(), x);
-    }
-  }
-  // k >= 2: the product over F's row blocks (built here, timed apart), as the light basis runs it; k = 1: the
-  // solvers' product over F as stored, as the basis of one light runs it.
-  hpcgi::Timer build;
-  std::optional<RowBlockMatrix> blocks;
-  if (k > 1) blocks.emplace(view, rows, ex.threads());
-  const double build_ms = build.seconds() * 1e3;
-  auto one = [&](std::vector<Soa<float>>& x, std::vector<Soa<float>>& y, std::vector<Soa<float>>& ee) {
-    affine_matvec(ex, view, rows, x[0], y[0], rho, ee[0], 0.0f, 1.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) X[q][i][c] = sys.emission[i][c] + 0.01 * double((i * 7 + q * 13 + c) % 101);
+  SolveConfig cfg;
+  cfg.backend = a.cfg.backend;
+  cfg.precision = Precision::single;
+  cfg.threads = a.threads;
+  const MultiBench b = bench_multi_product(sys, X, cfg, a.passes);
+  auto fact = [&](const char* name) {
+    for (const auto& [key, value] : b.facts)
+      if (key == name) return value;
+    return 0.0;
   };
-  // The k-product and the product with k = 1 in turns, pass by pass, so that their ratio compares passes that ran
-  // under the same load (this project's VM is shared); pass 0 warms the caches and the threads.
-  std::vector<double> ms, one_ms;
-  for (long p = 0; p <= a.passes; ++p) {
-    hpcgi::Timer t;
-    if (blocks)
-      multi_affine_matvec<OpenMPExec, float>(ex, *blocks, X, Y, rho, E, 0.0f, 1.0f, 1.0f);
-    else
-      one(X, Y, E);
-    const double tk = t.seconds() * 1e3;
-    t.reset();
-    one(X1, Y1, E1);
-    if (p > 0) ms.push_back(tk), one_ms.push_back(t.seconds() * 1e3);
-  }
-  // The same values through the one-right-hand-side product every solver runs (affine_matvec), for comparison.
-  std::vector<double> single_ms;
-  {
-    Aos<float> x(n), y(n), r(n), ee(n);
-    std::vector<Rgb> xh(n);
-    for (size_t i = 0; i < n; ++i) xh[i] = {e[i][0] + 0.5, e[i][1] + 0.5, e[i][2] + 0.5};
-    load(ex, x, xh), load(ex, r, rho_host), load(ex, ee, e);
-    for (long p = 0; p <= a.passes; ++p) {
-      hpcgi::Timer t;
-      affine_matvec(ex, view, rows, x, y, r, ee, 0.0f, 1.0f, 1.0f);
-      if (p > 0) single_ms.push_back(t.seconds() * 1e3);
-    }
-  }
-  const double med = percentile(ms, 50), read = blocks ? blocks->bytes() : bytes;
+  const double med = percentile(b.product_ms, 50), k1 = percentile(b.k1_ms, 50), single = percentile(b.single_ms, 50);
+  const double blocks = fact("blocks_bytes"), build_ms = fact("blocks_build_ms"), read = blocks > 0 ? blocks : bytes;
   rec["result"] = {{"rhs", k},
                    {"product_ms_median", med},
-                   {"product_ms", ms},
+                   {"product_ms", b.product_ms},
                    {"per_rhs_ms", med / double(k)},
-                   {"single_product_ms_median", percentile(single_ms, 50)},
-                   {"k1_product_ms_median", percentile(one_ms, 50)},
-                   {"over_k1_alternating", med / percentile(one_ms, 50)},
+                   {"single_product_ms_median", single},
+                   {"k1_product_ms_median", k1},
+                   {"over_k1_alternating", med / k1},
                    {"matrix_bytes", bytes},
-                   {"blocks_bytes", blocks ? blocks->bytes() : 0.0},
-                   {"blocks_fill", blocks ? double(blocks->nonzeros()) / double(blocks->columns() * kBlockRows) : 0.0},
-                   {"blocks_build_ms", blocks ? build_ms : 0.0},
+                   {"blocks_bytes", blocks},
+                   {"blocks_fill", fact("blocks_fill")},
+                   {"blocks_build_ms", build_ms},
                    {"bandwidth_GBps", read / (med * 1e-3) / 1e9},  // of what the product reads
-                   {"threads", ex.threads()}};
+                   {"threads", b.threads}};
   if (!a.quiet)
     std::printf("relight --bench-rhs %zu: %s %s F of %zu patches (%.1f MB; row blocks %.1f MB, built in %.0f ms), %d "
                 "threads: product %.3f ms (median of %ld), %.3f ms per right-hand side, %.2f GB/s read; k = 1 in turns "
                 "with it %.3f ms (ratio %.2f); one-right-hand-side solver product %.3f ms\n",
-                k, to_string(view.storage), to_string(view.values), n, bytes / 1e6, blocks ? blocks->bytes() / 1e6 : 0.0,
-                build_ms, ex.threads(), med, a.passes, med / double(k), read / (med * 1e-3) / 1e9,
-                percentile(one_ms, 50), med / percentile(one_ms, 50), percentile(single_ms, 50));
+                k, to_string(view.storage), to_string(view.values), n, bytes / 1e6, blocks / 1e6, build_ms, b.threads,
+                med, a.passes, med / double(k), read / (med * 1e-3) / 1e9, k1, med / k1, single);
   return 0;
 }
 
@@ -133,7 +96,10 @@ void add_relight(CLI::App& app, RelightArgs& a) {
       ->check(hpcgi::positive_finite())->capture_default_str();
   add_choice(cmd, "--method", a.cfg.method, parse_method, "reflectivity frames: jacobi | bicgstab",
              {Method::jacobi, Method::bicgstab});
-  cmd->add_option("--backend", a.cfg.backend, "reflectivity frames: a backend of `solve`")->capture_default_str();
+  cmd->add_option("--backend", a.cfg.backend,
+                  "the light basis's k-right-hand-side solve and the reflectivity frames: serial | openmp | mpi (the "
+                  "basis on MPI ranks under mpirun; frames of lights only)")
+      ->capture_default_str();
   add_choice(cmd, "--precision", a.cfg.precision, parse_precision, "reflectivity frames: float | double");
   cmd->add_option("--ff-precision", a.ff_precision, "reflectivity frames: F stored as float32 | float16 | bfloat16")
       ->check(CLI::IsMember({"float32", "float16", "bfloat16"}))->capture_default_str();
@@ -175,9 +141,10 @@ void add_relight(CLI::App& app, RelightArgs& a) {
 
 int run_relight(const RelightArgs& a) {
   hpcgi::Timer total;
-  const RelightPlan p = plan_relight(a);
+  // Under mpirun (--backend mpi) every rank plans and loads the same: a refusal is agreed, and rank 0 reports it.
+  const RelightPlan p = hpcgi::comm::agreed([&] { return plan_relight(a); });
   RelightInputs in;
-  load_relight(a, p, in);
+  hpcgi::comm::agreed([&] { load_relight(a, p, in); });
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "relight"},       {"scene", a.scene},
                    {"patches", in.m.size()},     {"divide", a.load.divide},
@@ -199,8 +166,12 @@ int run_relight(const RelightArgs& a) {
   BasisOptions bopt;
   bopt.tol = a.basis_tol;
   bopt.threads = a.threads;
+  bopt.backend = a.cfg.backend;
   bool loaded = false;
   const LightBasis basis = load_or_solve_basis(a.basis, in.m, a.ff, in.basis_view, in.lights, bopt, &loaded);
+  // Backend mpi: the ranks solved the basis together; rank 0 alone serves the frames (from the basis: no solve)
+  // and writes the record.
+  if (!hpcgi::comm::root()) return 0;
   const ServedFrames served = serve_frames(a, p, in, basis);
   relight_record(rec, a, in, basis, loaded, served, total.seconds());
   if (!a.quiet) print_relight_summary(a, p, in, basis, loaded, served);

@@ -6,6 +6,7 @@
 #include "common/timer.hpp"
 #include "radiosity/app/relight_phases.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/solve/multi_solve.hpp"
 #include "radiosity/solve/storage_choice.hpp"
 
 namespace radiosity::app {
@@ -18,8 +19,24 @@ RelightPlan plan_relight(const RelightArgs& a) {
   p.values = parse_ff_values(a.ff_precision);
   // The reflectivity frames' configuration and the storage their backend reads are checked before anything is read
   // or written, by the library's rules (solve.hpp: check_config, require_storage).
-  check_config(a.cfg);
   const SolveBackend& b = require_backend(a.cfg.backend);
+  // The light basis runs on the backend's k-right-hand-side product (multi_solve.hpp): one without is refused here,
+  // before anything is read or a device is asked for.
+  if (!has_multi_rhs(b.name))
+    throw hpcgi::UsageError("relight: --backend " + b.name + " has no k-right-hand-side product (the light basis " +
+                            "runs on " + multi_rhs_backends() + ")");
+  if (b.distributed && a.bench_rhs > 0)
+    throw hpcgi::UsageError("relight --bench-rhs times one process's k-right-hand-side product; --backend " + b.name +
+                            " is for the light basis (bench it with serial or openmp)");
+  check_config(a.cfg);
+  BasisOptions basis;  // the light basis's solve, by the same rules (its --basis-tol within double's reach)
+  basis.tol = a.basis_tol;
+  basis.backend = b.name;
+  try {
+    check_config(basis_config(basis));
+  } catch (const hpcgi::UsageError& e) {
+    throw hpcgi::UsageError(std::string("--basis-tol (the light basis's solve, in float64): ") + e.what());
+  }
   if (a.storage != "auto") p.storage = parse_ff_storage(a.storage);
   require_storage(b, p.storage.value_or(FFStorage::dense), p.values);
   // --basis is read when it exists and written when not: either way a file, and neither --ff nor --frames.
@@ -84,6 +101,14 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
   else if (a.bench_rhs == 0)
     in.frames = read_frames(a.frames, in.m, in.named, a.load.allow_reflectivity_ge_1);
   in.cam = parse_view(a.view, in.m);
+  // Backend mpi solves the light basis on the ranks; a frame that changes a reflectivity would be a solve of rank 0
+  // alone, which that backend does not run.
+  if (require_backend(a.cfg.backend).distributed)
+    for (size_t k = 0; k < in.frames.size(); ++k)
+      if (!in.frames[k].scene_reflectivity)
+        throw hpcgi::UsageError("relight --backend " + a.cfg.backend + ": frame " + std::to_string(k) +
+                                " changes a reflectivity; on MPI ranks relight serves frames of lights only (run "
+                                "reflectivity frames with --backend openmp)");
   // Every frame's picture passes the output check with the run's other outputs, before anything is computed: no
   // input (the form factors, the scene, its meshes, the basis) and no device or FIFO named PREFIX_0000.png is replaced.
   if (!a.png_frames.empty()) {

@@ -4,7 +4,7 @@
 #include <cstdio>
 
 #include "radiosity/app/relight_phases.hpp"
-#include "radiosity/solve/host/exec.hpp"
+#include "radiosity/solve/multi_solve.hpp"
 
 namespace radiosity::app {
 namespace {
@@ -48,7 +48,7 @@ void relight_record(nlohmann::json& rec, const RelightArgs& a, const RelightInpu
                         {"max_iter", cfg.max_iter},
                         {"frame_budget_ms", or_null(a.frame_budget_ms > 0, a.frame_budget_ms)},
                         {"check_every", a.check_every},
-                        {"threads", OpenMPExec(a.threads).threads()}});
+                        {"threads", solver_threads(a.threads)}});
   nlohmann::json light_names = nlohmann::json::array();
   for (const NamedEntity& l : in.lights) light_names.push_back(l.name);
   rec["result"] = {{"frames", in.frames.size()},

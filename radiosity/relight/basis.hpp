@@ -2,9 +2,9 @@
 // any mix of the lights' intensities and colours is the same mix of one solution per light, channel by channel:
 //   E = Σ_l s_l c_l ⊙ E_l   =>   B = Σ_l s_l c_l ⊙ B_l,   A B_l = E_l  (A_c = I - diag(ρ_c) F),
 // E_l the scene's emission on light l's patches (0 elsewhere), s_l its intensity and c_l its colour. The k solves
-// run together, Jacobi in float64 with all k right-hand sides in one pass over F's row blocks per step (linalg.hpp's
-// multi_affine_matvec; one light: the solvers' product over F as stored), until every light's every channel has a
-// relative residual <= tol. A frame is then
+// run together, Jacobi in float64 with all k right-hand sides in one pass over F per step (the driver's solve_multi:
+// methods/multi_rhs.hpp over the k-product of the backend, serial, openmp or mpi), until every light's every channel
+// has a relative residual <= tol. A frame is then
 // O(patches × lights), exact up to the basis' own residual.
 #pragma once
 #include <string>
@@ -12,6 +12,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/relight/entities.hpp"
+#include "radiosity/solve/config.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity::relight {
@@ -38,7 +39,12 @@ struct BasisOptions {
   double tol = 1e-7;
   long max_iter = 100000;
   int threads = 0;  // 0: the OpenMP default
+  std::string backend = "openmp";  // a backend with a k-right-hand-side product (multi_solve.hpp)
 };
+
+// The driver's configuration of the basis's solve (solve_multi): what relight's plan checks (check_config) before
+// anything is read.
+SolveConfig basis_config(const BasisOptions& opt);
 
 // Solves the basis of these lights on the mesh's reflectivities and dense F (any stored values; the relighting
 // uses the file's float32). Throws hpcgi::NumericalError when a light's solve does not converge (Jacobi needs

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <vector>
 
+#include "common/comm.hpp"
 #include "common/files.hpp"
 #include "common/errors.hpp"
 #include "radiosity/formfactor/ff_file.hpp"
@@ -149,7 +150,7 @@ LightBasis load_or_solve_basis(const std::string& path, const Mesh& m, const std
   *loaded = !path.empty() && std::ifstream(path, std::ios::binary).good();
   if (*loaded) return load_basis(path, key, lights);
   LightBasis b = solve_light_basis(m, F, lights, opt);
-  if (!path.empty()) save_basis(path, key, b);
+  if (!path.empty() && hpcgi::comm::root()) save_basis(path, key, b);  // backend mpi: rank 0 writes it
   return b;
 }
 

@@ -1,6 +1,7 @@
 // The backends' entry points, one file each; solve.cpp lists them in the registry.
 #pragma once
 #include <memory>
+#include <vector>
 
 #include "radiosity/solve/kernels.hpp"
 #include "radiosity/solve/solve.hpp"
@@ -16,6 +17,19 @@ std::unique_ptr<Kernels<T>> make_serial(const System& sys, const SolveConfig& cf
 template <class T>
 std::unique_ptr<Kernels<T>> make_openmp(const System& sys, const SolveConfig& cfg, int vectors);
 
+// The k-right-hand-side kernels (kernels.hpp's MultiKernels; multi_solve.hpp runs them): `vectors` slots of
+// E.size() vectors each, every slot of right-hand side q starting as E[q]. serial and openmp: cpu/multi.cpp; mpi:
+// mpi/multi_mpi.cpp. The GPU backends have none (multi_solve.hpp refuses them before anything is built).
+template <class T>
+using MultiFactory = std::unique_ptr<MultiKernels<T>> (*)(const System& sys, const std::vector<std::vector<Rgb>>& E,
+                                                          const SolveConfig& cfg, int vectors);
+template <class T>
+std::unique_ptr<MultiKernels<T>> make_multi_serial(const System& sys, const std::vector<std::vector<Rgb>>& E,
+                                                   const SolveConfig& cfg, int vectors);
+template <class T>
+std::unique_ptr<MultiKernels<T>> make_multi_openmp(const System& sys, const std::vector<std::vector<Rgb>>& E,
+                                                   const SolveConfig& cfg, int vectors);
+
 // RRV's own data structure and loop (original.cpp).
 SolveResult run_original(const System& sys, const SolveConfig& cfg, const IterationCallback& callback);
 
@@ -24,6 +38,11 @@ SolveResult run_original(const System& sys, const SolveConfig& cfg, const Iterat
 // holding that block (System::rows_begin, rows_end); collective from construction on.
 template <class T>
 std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, int vectors);
+// Its k-product (mpi/multi_mpi.cpp): every rank holds all of F, computes its block of rows of the k products and
+// gathers the k columns (MPI_Allgatherv); collective from construction on.
+template <class T>
+std::unique_ptr<MultiKernels<T>> make_multi_mpi(const System& sys, const std::vector<std::vector<Rgb>>& E,
+                                                const SolveConfig& cfg, int vectors);
 #endif
 
 #ifdef HAVE_CUDA

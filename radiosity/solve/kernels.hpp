@@ -5,6 +5,8 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "common/errors.hpp"
@@ -68,6 +70,26 @@ class Kernels {
     return m;
   }
   std::vector<Rgb> host_a_, host_b_;
+};
+
+// The contract of a backend that solves k systems on the same F and ρ at once (the light basis: one right-hand side
+// per light, radiosity/relight/): its slots each hold k vectors of three channels, and every slot of right-hand side
+// q starts as E_q (the factory's). One product passes over F once for all k. methods/multi_rhs.hpp is written over
+// it; the CPU backends (host kernels) and mpi (its row split, the k columns gathered) implement it.
+template <class T>
+class MultiKernels {
+ public:
+  virtual ~MultiKernels() = default;
+  virtual size_t rhs() const = 0;                                       // k
+  virtual void upload(int v, size_t q, const std::vector<Rgb>& x) = 0;  // host -> slot v's vector q
+  virtual void download(int v, size_t q, std::vector<Rgb>& x) = 0;     // slot v's vector q -> host
+  // Y_q = a·X_q + c·ρ ⊙ (F X_q) + d·E_q for every q < k, in one pass over F. y != x.
+  virtual void matvec(int y, int x, double a, double c, double d) = 0;
+  virtual std::vector<Rgb> dist2(int x, int y) = 0;                    // Σ (X_q - Y_q)² per channel, for each q
+  virtual int threads() const = 0;
+  virtual double matrix_bytes() const = 0;  // bytes one k-product reads from (its copy of) F
+  // What only the backend knows of its k-product's matrix (e.g. row blocks' bytes, fill and build time), by name.
+  virtual std::vector<std::pair<std::string, double>> facts() const { return {}; }
 };
 
 }  // namespace radiosity

@@ -62,17 +62,7 @@ MAY_INCLUDE = {
 }
 
 # Known breaks not yet fixed: (file, included file) -> the reason.
-OPEN = {
-    ("radiosity/relight/basis.cpp", "radiosity/solve/host/exec.hpp"):
-        "the light basis runs its own Jacobi loop over the host kernels (issue 36, item 3: a multi-right-hand-side "
-        "method over the contract is its fix)",
-    ("radiosity/relight/basis.cpp", "radiosity/solve/host/linalg.hpp"): "the same loop: the light basis's products",
-    ("radiosity/app/relight_cmd.cpp", "radiosity/solve/host/exec.hpp"):
-        "--bench-rhs times the host kernels' K-product itself, outside any method",
-    ("radiosity/app/relight_cmd.cpp", "radiosity/solve/host/linalg.hpp"): "the same: --bench-rhs's products",
-    ("radiosity/app/relight_report.cpp", "radiosity/solve/host/exec.hpp"):
-        "the record's thread count is read from the host executor (OpenMPExec::threads)",
-}
+OPEN = {}
 
 
 def includes(root):
