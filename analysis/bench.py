@@ -11,7 +11,9 @@ import pandas as pd
 
 from analysis import consistency
 from analysis.escape import md, md_table
-from analysis.records import load, median_ci, tables_dir
+from analysis.bench_records import ci_of, limit_next_to, median_of, on_host
+from analysis.bench_sparse import sparse_rows
+from analysis.records import load, tables_dir
 
 # Issue 7's targets on the CPU: CG at >= 80% of the triad bandwidth and >= 8x SciPy; a Jacobi step within 1.15x
 # of 4·N² bytes at the triad bandwidth, >= 2.5x the best NumPy way, and >= 1.7x faster with F in float16.
@@ -21,108 +23,32 @@ CG_FRACTION, CG_VS_SCIPY, JACOBI_SLACK, JACOBI_VS_NUMPY, HALF_VS_FLOAT = 0.80, 8
 MG_VS_HYPRE, CG_VS_PETSC, MG_8192_S = 0.5, 3.0, 10.0
 # Issue 37's: at N = 8191 or 8192, FMG's solve <= 0.5 s and faster than the DST solver's, its setup <= 0.35 s.
 FMG_SOLVE_S, FMG_SETUP_S = 0.5, 0.35
-# Issue 17's: CSR float32 on room3 within 1.25x of its matrix bytes at the read-sweep bandwidth next to it; the
-# compressed storage (compressed or runs) at least 4x faster per Jacobi step than dense float32 on room3, in the same
-# run.
-CSR_SLACK, COMPRESSED_VS_DENSE = 1.25, 4.0
 PETSC = {"none": "PETSc CG (AIJ 5-point)", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
 
 
-def _on(df, host):
-    return df[df["provenance.host"] == host] if len(df) else df
+def _problem(out, stream, title, entries):
+    """One problem's rows into out. entries: (solver, records, bytes per iteration or None, ours?); time / ours is
+    against our fastest. Returns our fastest as (solver, records, bytes, ours, time, triad next to it) and the
+    peers' times."""
+    entries = [(name, recs, b, mine, median_of(recs, "times_s.per_iteration"), limit_next_to(stream, recs))
+               for name, recs, b, mine in entries if len(recs)]
+    ours = [e for e in entries if e[3]]
+    if not ours:
+        return None, {}
+    fastest = min(ours, key=lambda e: e[4])
+    for k, (name, recs, b, mine, t, triad) in enumerate(entries):
+        gbps = b / t / 1e9 if b else None
+        out.append({"problem": title if k == 0 else "", "solver": ("ours: " if mine else "") + name,
+                    "ms per iteration": 1e3 * t, "95% interval (ms)": ci_of(recs, "times_s.per_iteration", 1e3),
+                    "GB/s": gbps, "triad next to it": triad if mine and b else None,
+                    "of triad": gbps / triad if mine and b else None, "time / ours": t / fastest[4],
+                    "repeats": len(recs)})
+    return fastest, {name: t for name, _, _, mine, t, _ in entries if not mine}
 
 
-def _median(df, col):
-    return float(df[col].median())
-
-
-def _ci(df, col, scale=1.0):
-    """The bootstrap 95% interval of the median of df[col] (times scale), as "[lo, hi]"; empty below 3 repeats."""
-    v = df[col].dropna() * scale
-    return "[{:.3g}, {:.3g}]".format(*median_ci(v)) if len(v) >= 3 else ""
-
-
-def _limit_next_to(stream, recs, col="perf.triad_GBps"):
-    """The bandwidth (the triad, or col) measured next to a case's records: the median of the last stream record at
-    or before their first and the first at or after their last (either alone where the other is missing)."""
-    t, first, last = stream["provenance.utc"], recs["provenance.utc"].min(), recs["provenance.utc"].max()
-    near = [s for s in (stream[t <= first].sort_values("provenance.utc").tail(1),
-                        stream[t >= last].sort_values("provenance.utc").head(1)) if len(s)]
-    return _median(pd.concat(near), col)
-
-
-def sparse_rows(preset, host, stream):
-    """The bench-sparse table (issue 17): per scene and storage, the bytes of F a step reads, the time per step, its
-    bandwidth, the read sweep next to it and the time over its limit (bytes / read sweep); and the target lines.
-    Each repeat is set against the stream records beside it (slurm/bench runs the list in rounds), then medians."""
-    df = _on(load("bench-sparse", preset), host)
-    if not len(df):
-        return [], []
-    out, targets, per = [], [], {}
-    df = df.assign(scene_name=df["params.scene"].map(lambda x: x.rsplit("/", 1)[-1]))
-    for scene, g in df.groupby("scene_name", sort=False):
-        for k, ((storage, values), r) in enumerate(g.groupby(["params.storage", "params.ff_precision"], sort=False)):
-            nbytes = float(r["perf.matrix_bytes"].iloc[0])
-            read = [_limit_next_to(stream, r.iloc[[i]], "perf.read_GBps") for i in range(len(r))]
-            t = _median(r, "times_s.per_iteration")
-            over = float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], read)])
-                         .median())
-            per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()))
-            consistency.quote(f"{scene}: one Jacobi step, OpenMP, float (ms)",
-                              f"make bench ({preset}), sparse table, {scene} {storage} {values}",
-                              1e3 * r["times_s.per_iteration"], r)
-            out.append({"problem": f"Jacobi step, {scene}, {int(r['params.patches'].iloc[0])} patches" if k == 0
-                        else "", "storage": f"{storage} {values}", "MB of F per step": nbytes / 1e6,
-                        # the row starts left out (runs: two arrays of them)
-                        "bytes per entry": (nbytes - (16 if storage == "runs" else 8) *
-                                            (int(r["params.patches"].iloc[0]) + 1)) /
-                        float(r["result.kept"].iloc[0]) if storage != "dense" else None,
-                        "ms per step": 1e3 * t, "95% interval (ms)": _ci(r, "times_s.per_iteration", 1e3),
-                        "GB/s": nbytes / t / 1e9,
-                        "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
-                        "repeats": len(r)})
-    csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
-    if csr:
-        targets.append(f"CSR float32 room3: {csr[1]:.2f}x its matrix bytes at the read sweep next to it "
-                       f"({csr[2]:.1f} GB/s; target <= {CSR_SLACK}x): {'met' if csr[1] <= CSR_SLACK else 'NOT met'}")
-    for storage, values in (("runs", "float16"), ("runs", "float32"), ("compressed", "float16"), ("compressed", "float32")):
-        comp = per.get(("room3.xml", storage, values))
-        if comp and dense:
-            x = dense[0] / comp[0]
-            targets.append(f"{storage} {values} room3: {x:.2f}x faster per Jacobi step than dense float32 "
-                           f"({1e3 * comp[0]:.2f} against {1e3 * dense[0]:.2f} ms; target >= {COMPRESSED_VS_DENSE:g}x)"
-                           f": {'met' if x >= COMPRESSED_VS_DENSE else 'NOT met'}")
-    return out, targets
-
-
-def rows(preset):
-    """(table rows, target lines, host, threads, CPU model), or None when there is no bandwidth record."""
-    stream = load("bench-stream", preset)
-    if not len(stream):
-        return None
-    host = stream.sort_values("provenance.utc")["provenance.host"].iloc[-1]
-    stream = _on(stream, host)
-    out, targets = [], []
-
-    def problem(title, entries):
-        """entries: (solver, records, bytes per iteration or None, ours?); time / ours is against our fastest.
-        Returns our fastest as (solver, records, bytes, ours, time, triad next to it) and the peers' times."""
-        entries = [(name, recs, b, mine, _median(recs, "times_s.per_iteration"), _limit_next_to(stream, recs))
-                   for name, recs, b, mine in entries if len(recs)]
-        ours = [e for e in entries if e[3]]
-        if not ours:
-            return None, {}
-        fastest = min(ours, key=lambda e: e[4])
-        for k, (name, recs, b, mine, t, triad) in enumerate(entries):
-            gbps = b / t / 1e9 if b else None
-            out.append({"problem": title if k == 0 else "", "solver": ("ours: " if mine else "") + name,
-                        "ms per iteration": 1e3 * t, "95% interval (ms)": _ci(recs, "times_s.per_iteration", 1e3),
-                        "GB/s": gbps, "triad next to it": triad if mine and b else None,
-                        "of triad": gbps / triad if mine and b else None, "time / ours": t / fastest[4],
-                        "repeats": len(recs)})
-        return fastest, {name: t for name, _, _, mine, t, _ in entries if not mine}
-
-    cg = _on(load("bench-cg", preset), host)
+def _cg_rows(preset, host, stream, out, targets):
+    """Poisson CG per N (bench-cg): our variants against SciPy's CG; issue 7's CG targets at N = 2048."""
+    cg = on_host(load("bench-cg", preset), host)
     if len(cg):
         mine, peer = cg[cg["app"] == "poisson"], cg[cg["app"] == "peer"]
         for n in sorted(mine["params.n"].unique()):
@@ -136,7 +62,7 @@ def rows(preset):
             entries.append(("SciPy sparse.linalg.cg (CSR)", sp, None, False))
             its = int(mine[mine["params.n"] == n]["result.iterations"].median())
             sp_its = f", SciPy {int(sp['result.iterations'].median())}" if len(sp) else ""
-            fastest, peers = problem(f"Poisson CG double N={n} ({its} it.{sp_its})", entries)
+            fastest, peers = _problem(out, stream, f"Poisson CG double N={n} ({its} it.{sp_its})", entries)
             if n == 2048 and fastest:
                 frac = fastest[2] / fastest[4] / 1e9 / fastest[5]
                 targets.append(f"CG N=2048 ({fastest[0]}): {100 * frac:.0f}% of the triad bandwidth next to it "
@@ -147,7 +73,11 @@ def rows(preset):
                     targets.append(f"CG N=2048: {x:.1f}x faster per iteration than {name} (target >= "
                                    f"{CG_VS_SCIPY:g}x): {'met' if x >= CG_VS_SCIPY else 'NOT met'}")
 
-    jac = _on(load("bench-jacobi", preset), host)
+
+def _jacobi_rows(preset, host, stream, out, targets):
+    """A Jacobi step on room3 (bench-jacobi): our layouts against NumPy's products, F in 16 bits against float32;
+    issue 7's Jacobi targets."""
+    jac = on_host(load("bench-jacobi", preset), host)
     if len(jac):
         mine, peer = jac[jac["app"] == "radiosity"], jac[jac["app"] == "peer"]
         prec = mine["params.ff_precision"] if "params.ff_precision" in mine else pd.Series("float32", mine.index)
@@ -166,7 +96,7 @@ def rows(preset):
         # The issue's bound is 4N² bytes (all of F); the solver skips the rows of patches with reflectivity 0, so it
         # reads less, and its GB/s counts what it reads.
         full = 4.0 * n * n
-        fastest, peers = problem(f"Jacobi step, room3.xml, {n} patches (4N² = {full / 1e6:.0f} MB, of which "
+        fastest, peers = _problem(out, stream, f"Jacobi step, room3.xml, {n} patches (4N² = {full / 1e6:.0f} MB, of which "
                                  f"{nbytes / 1e6:.0f} MB read)", entries)
         if fastest:
             bound = full / (fastest[5] * 1e9)
@@ -184,38 +114,54 @@ def rows(preset):
             entries = [(f"openmp float AOS, F in {v}", half[half["params.ff_precision"] == v], nbytes / 2, True)
                        for v in ("float16", "bfloat16")]
             entries.append(("openmp float AOS, F in float32 (above)", f32, nbytes, True))
-            problem(f"Jacobi step, room3.xml, F stored in 16 bits ({nbytes / 2e6:.0f} MB read)", entries)
-            t32 = _median(f32, "times_s.per_iteration")
+            _problem(out, stream, f"Jacobi step, room3.xml, F stored in 16 bits ({nbytes / 2e6:.0f} MB read)", entries)
+            t32 = median_of(f32, "times_s.per_iteration")
             f16 = half[half["params.ff_precision"] == "float16"]
             if len(f16):
-                x = t32 / _median(f16, "times_s.per_iteration")
+                x = t32 / median_of(f16, "times_s.per_iteration")
                 targets.append(f"Jacobi room3: F in float16 {x:.2f}x faster per step than in float32 (AOS; target >= "
                                f"{HALF_VS_FLOAT:g}x): {'met' if x >= HALF_VS_FLOAT else 'NOT met'}")
 
-    hc = _on(load("bench-hemicube", preset), host)
+
+def _hemicube_rows(preset, host, out, targets):
+    """The hemicube's speed (bench-hemicube), and slurm/hemicube-before-after's commits, before and after."""
+    hc = on_host(load("bench-hemicube", preset), host)
     if len(hc):
-        pps = _median(hc, "perf.patches_per_s")
+        pps = median_of(hc, "perf.patches_per_s")
         out.append({"problem": f"Hemicube room3.xml R={int(hc['params.hemicube'].iloc[0])} (iteration = one patch)",
-                    "solver": f"ours: {pps:.0f} patches/s, {_median(hc, 'times_s.hemicube'):.2f} s",
+                    "solver": f"ours: {pps:.0f} patches/s, {median_of(hc, 'times_s.hemicube'):.2f} s",
                     "ms per iteration": 1e3 / pps, "repeats": len(hc)})
     # slurm/hemicube-before-after: the program of an older commit and the current one, run in turns.
-    hist = _on(load("hemicube_speed"), host)
+    hist = on_host(load("hemicube_speed"), host)
     if len(hist):
         groups = sorted(hist.groupby("provenance.git_commit"), key=lambda g: g[1]["provenance.utc"].min())
         for commit, g in groups:
             out.append({"problem": "Hemicube room3.xml R=256, slurm/hemicube-before-after" if commit == groups[0][0]
-                        else "", "solver": f"commit {commit[:7]}: {_median(g, 'perf.patches_per_s'):.0f} patches/s",
-                        "ms per iteration": 1e3 / _median(g, "perf.patches_per_s"), "repeats": len(g)})
+                        else "", "solver": f"commit {commit[:7]}: {median_of(g, 'perf.patches_per_s'):.0f} patches/s",
+                        "ms per iteration": 1e3 / median_of(g, "perf.patches_per_s"), "repeats": len(g)})
         if len(groups) > 1:
             (c0, g0), (c1, g1) = groups[0], groups[-1]
-            p0, p1 = _median(g0, "perf.patches_per_s"), _median(g1, "perf.patches_per_s")
+            p0, p1 = median_of(g0, "perf.patches_per_s"), median_of(g1, "perf.patches_per_s")
             targets.append(f"Hemicube room3 R=256: {p0:.0f} patches/s before (commit {c0[:7]}), {p1:.0f} after "
                            f"(commit {c1[:7]}): {p1 / p0:.2f}x")
+
+
+def rows(preset):
+    """(table rows, target lines, host, threads, CPU model), or None when there is no bandwidth record."""
+    stream = load("bench-stream", preset)
+    if not len(stream):
+        return None
+    host = stream.sort_values("provenance.utc")["provenance.host"].iloc[-1]
+    stream = on_host(stream, host)
+    out, targets = [], []
+    _cg_rows(preset, host, stream, out, targets)
+    _jacobi_rows(preset, host, stream, out, targets)
+    _hemicube_rows(preset, host, out, targets)
     # The limit over the whole run: its spread is the neighbours' share of the memory system.
     for name, col in (("STREAM triad", "perf.triad_GBps"), ("read-only sweep", "perf.read_GBps")):
         out.append({"problem": f"limit: {name} (median; min to max: {stream[col].min():.1f} to "
-                               f"{stream[col].max():.1f} GB/s)", "solver": "bin/stream", "GB/s": _median(stream, col),
-                    "of triad": _median(stream, col) / _median(stream, "perf.triad_GBps"), "repeats": len(stream)})
+                               f"{stream[col].max():.1f} GB/s)", "solver": "bin/stream", "GB/s": median_of(stream, col),
+                    "of triad": median_of(stream, col) / median_of(stream, "perf.triad_GBps"), "repeats": len(stream)})
     return out, targets, host, int(stream["params.threads"].iloc[-1]), stream["provenance.cpu_model"].iloc[-1]
 
 
@@ -262,7 +208,7 @@ def _pcg_targets(n, rows_n):
 def mg_rows(preset, host):
     """The bench-mg table (time to solution, iterations, error, DOF/s, time / ours) and its target lines."""
     from common import backend_facts  # the programs' facts, read where the binaries are built (make bench)
-    df = _on(load("bench-mg", preset), host)
+    df = on_host(load("bench-mg", preset), host)
     if not len(df):
         return [], []
     precond = df["params.precond"].fillna("none") if "params.precond" in df else pd.Series("none", df.index)
@@ -271,14 +217,14 @@ def mg_rows(preset, host):
     out, targets = [], []
 
     def entry(name, recs, ours_t=None):
-        t, it = _median(recs, "times_s.solve"), int(recs["result.iterations"].median())
+        t, it = median_of(recs, "times_s.solve"), int(recs["result.iterations"].median())
         setup = recs["times_s.setup"] + (recs["times_s.pc_setup"].fillna(0) if "times_s.pc_setup" in recs else 0)
         n = float(recs["params.n"].iloc[0])
         return {"solver": name, "iterations": it, "time to solution (s)": t,
-                "95% interval (s)": _ci(recs, "times_s.solve"),
-                "ms per iteration": 1e3 * _median(recs, "times_s.per_iteration"),
+                "95% interval (s)": ci_of(recs, "times_s.solve"),
+                "ms per iteration": 1e3 * median_of(recs, "times_s.per_iteration"),
                 "setup (s)": float(setup.fillna(0).median()), "DOF/s": n * n / t if t > 0 else None,
-                "error ‖u − u_h‖∞": _median(recs, "result.error_inf"),
+                "error ‖u − u_h‖∞": median_of(recs, "result.error_inf"),
                 "time / ours": t / ours_t if ours_t else 1.0, "repeats": len(recs)}
 
     for n in sorted(df["params.n"].unique()):
@@ -343,7 +289,7 @@ def write(preset):
         return None
     out, targets, host, threads, cpu = made
     mg_out, mg_targets = mg_rows(preset, host)
-    sp_out, sp_targets = sparse_rows(preset, host, _on(load("bench-stream", preset), host))
+    sp_out, sp_targets = sparse_rows(preset, host, on_host(load("bench-stream", preset), host))
     table = markdown(out, ".3g")
     head = (f"CPU timings (host wall clock) on {md(host)} ({md(cpu)}), {threads} threads, OMP_PROC_BIND=close, medians over "
             f"the repeats. GB/s: the bytes the solver's data-movement model must move per iteration over its time; "

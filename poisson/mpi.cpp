@@ -25,7 +25,7 @@
 #include "common/errors.hpp"
 #include "poisson/backends.hpp"
 #include "poisson/cpu_block.hpp"
-#include "poisson/mg_cpu.hpp"
+#include "poisson/cpu_pcg.hpp"
 
 namespace poisson {
 namespace {

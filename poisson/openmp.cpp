@@ -6,7 +6,7 @@
 
 #include "poisson/backends.hpp"
 #include "poisson/cpu_block.hpp"
-#include "poisson/mg_cpu.hpp"
+#include "poisson/cpu_pcg.hpp"
 
 namespace poisson {
 namespace {

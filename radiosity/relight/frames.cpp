@@ -85,19 +85,111 @@ nlohmann::json parse_frames_file(const std::string& path) {
   return doc;
 }
 
+// What each frame of a frames file is read against: the scene's named entities and its lights, their indexes by
+// name, and each patch's reflectivity in the scene.
+struct FrameNames {
+  const std::vector<NamedEntity>& named;
+  std::vector<NamedEntity> lights;
+  std::map<std::string, size_t> light_index, entity_index;
+  std::vector<Rgb> scene_rho;
+  bool allow_reflectivity_ge_1;
+};
+
+// A frame's "lights": {NAME: {"intensity": x, "rgb": [r, g, b]}}, into the lights of state (unnamed lights and
+// fields keep their values from the frame before).
+void read_lights(const nlohmann::json& value, const FrameNames& s, Frame& state) {
+  if (!value.is_object()) throw hpcgi::UsageError("\"lights\" must be an object {NAME: {\"intensity\", \"rgb\"}}");
+  for (const auto& [name, setting] : value.items()) {
+    const auto it = s.light_index.find(name);
+    if (it == s.light_index.end())
+      throw hpcgi::UsageError("unknown light '" + name + "' (lights: " + name_list(s.lights) + ")");
+    if (!setting.is_object())
+      throw hpcgi::UsageError("light '" + name + "' must be {\"intensity\": x, \"rgb\": [r, g, b]}");
+    LightSetting& ls = state.lights[it->second];
+    for (const auto& [field, v] : setting.items()) {
+      if (field == "intensity") ls.intensity = number(v, "light '" + name + "' intensity");
+      else if (field == "rgb") ls.colour = triple(v, "light '" + name + "' rgb");
+      else throw hpcgi::UsageError("light '" + name + "': unknown key '" + field + "' (intensity, rgb)");
+    }
+  }
+}
+
+// Entity e's reflectivity {"scale": f}: the scene's reflectivity of its patches times f, refused where that
+// reaches 1 in a channel of a patch (unless allowed).
+void read_scale(const nlohmann::json& v, const std::string& what, size_t e, const FrameNames& s,
+                FrameReflectivity& rho) {
+  if (v.size() != 1 || !v.contains("scale"))
+    throw hpcgi::UsageError(what + " must be [r, g, b] or {\"scale\": f}, got " + v.dump());
+  const double f = number(v["scale"], what + " scale");
+  double top = 0;
+  for (size_t i : s.named[e].patches)
+    for (int c = 0; c < 3; ++c) top = std::max(top, s.scene_rho[i][c] * f);
+  if (top >= 1 && !s.allow_reflectivity_ge_1)
+    throw hpcgi::UsageError(what + " times " + v["scale"].dump() + " is >= 1 in a channel of a patch (" +
+                            std::to_string(top) + "); give --allow-reflectivity-ge-1 to accept it");
+  rho.reflectivity[e] = std::nullopt;
+  rho.scale[e] = f;
+}
+
+// A frame's "reflectivity": {NAME: [r, g, b] or {"scale": f}}, into rho (the entities not named keep theirs).
+void read_reflectivity(const nlohmann::json& value, const FrameNames& s, FrameReflectivity& rho) {
+  if (!value.is_object()) throw hpcgi::UsageError("\"reflectivity\" must be an object {NAME: [r, g, b]}");
+  for (const auto& [name, v] : value.items()) {
+    const auto it = s.entity_index.find(name);
+    if (it == s.entity_index.end())
+      throw hpcgi::UsageError("unknown entity '" + name + "' (entities: " + name_list(s.named) + ")");
+    const std::string what = "reflectivity of '" + name + "'";
+    if (v.is_object()) {
+      read_scale(v, what, it->second, s, rho);
+      continue;
+    }
+    const Rgb c = triple(v, what);
+    for (int ch = 0; ch < 3; ++ch)
+      if (c[ch] >= 1 && !s.allow_reflectivity_ge_1)
+        throw hpcgi::UsageError(what + " is >= 1 in a channel (" + v.dump() +
+                                "); give --allow-reflectivity-ge-1 to accept it");
+    rho.reflectivity[it->second] = c;
+    rho.scale[it->second] = 1;
+  }
+}
+
+// One frame into state (its lights) and rho (the reflectivities so far; state.rho a new copy where it changed).
+void read_frame(const nlohmann::json& fr, const FrameNames& s, Frame& state, FrameReflectivity& rho) {
+  bool changed = false;
+  if (!fr.is_object()) throw hpcgi::UsageError("a frame is an object {\"lights\": {...}, \"reflectivity\": {...}}");
+  for (const auto& [key, value] : fr.items()) {
+    if (key == "lights") {
+      read_lights(value, s, state);
+    } else if (key == "reflectivity") {
+      changed = true;
+      read_reflectivity(value, s, rho);
+    } else {
+      throw hpcgi::UsageError("unknown key '" + key + "' (a frame has lights, reflectivity)");
+    }
+  }
+  if (changed) state.rho = std::make_shared<const FrameReflectivity>(rho);
+}
+
+// Whether every entity has its scene reflectivity in rho.
+bool scene_reflectivity(const std::vector<NamedEntity>& named, const FrameReflectivity& rho) {
+  bool same = true;
+  for (size_t e = 0; e < named.size(); ++e)
+    same &= rho.scale[e] == 1 &&
+            (!rho.reflectivity[e] || (named[e].uniform_reflectivity && *rho.reflectivity[e] == named[e].reflectivity));
+  return same;
+}
+
 }  // namespace
 
 std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std::vector<NamedEntity>& named,
                                bool allow_reflectivity_ge_1) {
-  std::vector<Rgb> scene_rho(m.size());
-  for (size_t i = 0; i < m.size(); ++i) scene_rho[i] = m.patches[i].reflectivity;
   const nlohmann::json doc = parse_frames_file(path);
   if (!doc.is_object() || !doc.contains("frames") || !doc["frames"].is_array() || doc.size() != 1)
     throw hpcgi::UsageError(path + ": a frames file is one object {\"frames\": [frame, ...]}");
-  const std::vector<NamedEntity> lights = lights_of(named);
-  std::map<std::string, size_t> light_index, entity_index;
-  for (size_t l = 0; l < lights.size(); ++l) light_index[lights[l].name] = l;
-  for (size_t e = 0; e < named.size(); ++e) entity_index[named[e].name] = e;
+  FrameNames s{named, lights_of(named), {}, {}, std::vector<Rgb>(m.size()), allow_reflectivity_ge_1};
+  for (size_t i = 0; i < m.size(); ++i) s.scene_rho[i] = m.patches[i].reflectivity;
+  for (size_t l = 0; l < s.lights.size(); ++l) s.light_index[s.lights[l].name] = l;
+  for (size_t e = 0; e < named.size(); ++e) s.entity_index[named[e].name] = e;
   const nlohmann::json& list = doc["frames"];
   if (list.size() > kMaxFrames)
     throw hpcgi::UsageError(path + ": " + std::to_string(list.size()) + " frames, more than " +
@@ -105,11 +197,12 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
   // At most: every frame's lights, and a copy of every entity's reflectivity for each frame that changes one.
   size_t changes = 0;
   for (const nlohmann::json& fr : list) changes += fr.is_object() && fr.contains("reflectivity");
+  const double per_frame = double(sizeof(Frame) + s.lights.size() * sizeof(LightSetting));
+  const double per_change = double(named.size()) * (sizeof(std::optional<Rgb>) + sizeof(double));
   hpcgi::require_host_memory(path + ": " + std::to_string(list.size()) + " frames",
-                             double(list.size()) * double(sizeof(Frame) + lights.size() * sizeof(LightSetting)) +
-                                 double(changes) * double(named.size()) * (sizeof(std::optional<Rgb>) + sizeof(double)));
+                             double(list.size()) * per_frame + double(changes) * per_change);
   Frame state;
-  state.lights.assign(lights.size(), LightSetting{});
+  state.lights.assign(s.lights.size(), LightSetting{});
   FrameReflectivity rho;
   rho.reflectivity.assign(named.size(), std::nullopt);
   rho.scale.assign(named.size(), 1.0);
@@ -117,70 +210,12 @@ std::vector<Frame> read_frames(const std::string& path, const Mesh& m, const std
   std::vector<Frame> frames;
   frames.reserve(list.size());
   for (size_t k = 0; k < list.size(); ++k) {
-    const std::string at = path + ": frame " + std::to_string(k) + ": ";
     try {
-      const nlohmann::json& fr = list[k];
-      bool changed = false;
-      if (!fr.is_object()) throw hpcgi::UsageError("a frame is an object {\"lights\": {...}, \"reflectivity\": {...}}");
-      for (const auto& [key, value] : fr.items()) {
-        if (key == "lights") {
-          if (!value.is_object()) throw hpcgi::UsageError("\"lights\" must be an object {NAME: {\"intensity\", \"rgb\"}}");
-          for (const auto& [name, s] : value.items()) {
-            const auto it = light_index.find(name);
-            if (it == light_index.end())
-              throw hpcgi::UsageError("unknown light '" + name + "' (lights: " + name_list(lights) + ")");
-            if (!s.is_object()) throw hpcgi::UsageError("light '" + name + "' must be {\"intensity\": x, \"rgb\": [r, g, b]}");
-            LightSetting& ls = state.lights[it->second];
-            for (const auto& [field, v] : s.items()) {
-              if (field == "intensity") ls.intensity = number(v, "light '" + name + "' intensity");
-              else if (field == "rgb") ls.colour = triple(v, "light '" + name + "' rgb");
-              else throw hpcgi::UsageError("light '" + name + "': unknown key '" + field + "' (intensity, rgb)");
-            }
-          }
-        } else if (key == "reflectivity") {
-          changed = true;
-          if (!value.is_object()) throw hpcgi::UsageError("\"reflectivity\" must be an object {NAME: [r, g, b]}");
-          for (const auto& [name, v] : value.items()) {
-            const auto it = entity_index.find(name);
-            if (it == entity_index.end())
-              throw hpcgi::UsageError("unknown entity '" + name + "' (entities: " + name_list(named) + ")");
-            const std::string what = "reflectivity of '" + name + "'";
-            const NamedEntity& ent = named[it->second];
-            if (v.is_object()) {
-              if (v.size() != 1 || !v.contains("scale"))
-                throw hpcgi::UsageError(what + " must be [r, g, b] or {\"scale\": f}, got " + v.dump());
-              const double f = number(v["scale"], what + " scale");
-              double top = 0;
-              for (size_t i : ent.patches)
-                for (int c = 0; c < 3; ++c) top = std::max(top, scene_rho[i][c] * f);
-              if (top >= 1 && !allow_reflectivity_ge_1)
-                throw hpcgi::UsageError(what + " times " + v["scale"].dump() + " is >= 1 in a channel of a patch (" +
-                                        std::to_string(top) + "); give --allow-reflectivity-ge-1 to accept it");
-              rho.reflectivity[it->second] = std::nullopt;
-              rho.scale[it->second] = f;
-              continue;
-            }
-            const Rgb c = triple(v, what);
-            for (int ch = 0; ch < 3; ++ch)
-              if (c[ch] >= 1 && !allow_reflectivity_ge_1)
-                throw hpcgi::UsageError(what + " is >= 1 in a channel (" + v.dump() +
-                                        "); give --allow-reflectivity-ge-1 to accept it");
-            rho.reflectivity[it->second] = c;
-            rho.scale[it->second] = 1;
-          }
-        } else {
-          throw hpcgi::UsageError("unknown key '" + key + "' (a frame has lights, reflectivity)");
-        }
-      }
-      if (changed) state.rho = std::make_shared<const FrameReflectivity>(rho);
+      read_frame(list[k], s, state, rho);
     } catch (const hpcgi::UsageError& e) {
-      throw hpcgi::UsageError(at + e.what());
+      throw hpcgi::UsageError(path + ": frame " + std::to_string(k) + ": " + e.what());
     }
-    state.scene_reflectivity = true;
-    for (size_t e = 0; e < named.size(); ++e)
-      state.scene_reflectivity &= rho.scale[e] == 1 &&
-                                  (!rho.reflectivity[e] ||
-                                   (named[e].uniform_reflectivity && *rho.reflectivity[e] == named[e].reflectivity));
+    state.scene_reflectivity = scene_reflectivity(named, rho);
     frames.push_back(state);
   }
   if (frames.empty()) throw hpcgi::UsageError(path + ": no frames");

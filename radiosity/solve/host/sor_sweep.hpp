@@ -25,6 +25,81 @@
 
 namespace radiosity {
 
+// The helpers of sor_rows below, each inlined into it (they are its inner loops, split out by what they do).
+namespace sor_detail {
+
+// Σ_{b0<=j<i} F_ij δ_j for a dense row from its segment seg = F_i + b0 of m = i - b0 values, from cache (the row
+// was just summed against x); dc: the block's changes y - x, one array per channel.
+template <class Val, int C, class T>
+[[gnu::always_inline]] inline void segment(const typename Val::stored* seg, size_t m, T* const (&dc)[3],
+                                           T (&sd)[3]) {
+  if constexpr (C == 3) {
+    T d0 = 0, d1 = 0, d2 = 0;
+    const T *e0 = dc[0], *e1 = dc[1], *e2 = dc[2];
+#pragma omp simd reduction(+ : d0, d1, d2)
+    for (size_t j = 0; j < m; ++j) {
+      const T f = Val::get(seg, j);
+      d0 += f * e0[j];
+      d1 += f * e1[j];
+      d2 += f * e2[j];
+    }
+    sd[0] = d0, sd[1] = d1, sd[2] = d2;
+  } else {
+    T d0 = 0;
+    const T* e0 = dc[0];
+#pragma omp simd reduction(+ : d0)
+    for (size_t j = 0; j < m; ++j) d0 += T(Val::get(seg, j)) * e0[j];
+    sd[0] = d0;
+  }
+}
+
+// Rows [b0, b1) of a sparse F (csr, compressed, runs), each row's entries once: so against x, sd against the
+// changes of the rows before it in the block; update(i, so, sd) makes row i's new value.
+template <class Val, int C, class T, class Needed, class Update>
+[[gnu::always_inline]] inline void sparse_block(const FFMatrixView& F, const T* const (&xc)[3], T* const (&dc)[3],
+                                                size_t b0, size_t b1, const Needed& needed, const Update& update) {
+  const auto* data = static_cast<const typename Val::stored*>(F.data);
+  for (size_t i = b0; i < b1; ++i) {
+    T so[3] = {0, 0, 0}, sd[3] = {0, 0, 0};
+    if (needed(i))
+      for_each_entry(F, i, [&](size_t k, size_t j) {
+        const T f = Val::get(data, k);
+        for (int ch = 0; ch < C; ++ch) so[ch] += f * xc[ch][j];
+        if (j >= b0 && j < i)
+          for (int ch = 0; ch < C; ++ch) sd[ch] += f * dc[ch][j - b0];
+      });
+    update(i, so, sd);
+  }
+}
+
+// Rows [b0, b1) of a dense F: four consecutive rows summed against x in one pass (linalg.hpp's sums4, the kernel
+// of a Jacobi step, so so is Jacobi's sum to the bit), then each row's segment against the changes, in order. A
+// group past b1 repeats its first row in the missing places, as matvec_rows does.
+template <class Val, int C, class T, class Needed, class Update>
+[[gnu::always_inline]] inline void dense_block(const FFMatrixView& F, size_t n, const T* const (&xc)[3],
+                                               T* const (&dc)[3], size_t b0, size_t b1, const Needed& needed,
+                                               const Update& update) {
+  const auto* data = static_cast<const typename Val::stored*>(F.data);
+  for (size_t i0 = b0; i0 < b1; i0 += kGroup) {
+    const size_t rows_here = std::min(kGroup, b1 - i0);
+    const typename Val::stored* Fr[kGroup];
+    for (size_t r = 0; r < kGroup; ++r) Fr[r] = data + (r < rows_here ? i0 + r : i0) * n;
+    T s[kGroup][3] = {};
+    sums4<Val, C>(Fr, xc[0], xc[1], xc[2], n, s);
+    for (size_t r = 0; r < rows_here; ++r) {
+      const size_t i = i0 + r;
+      T so[3] = {0, 0, 0}, sd[3] = {0, 0, 0};
+      if (needed(i)) {
+        for (int ch = 0; ch < 3; ++ch) so[ch] = s[r][ch];
+        segment<Val, C>(Fr[r] + b0, i - b0, dc, sd);
+      }
+      update(i, so, sd);
+    }
+  }
+}
+
+}  // namespace sor_detail
+
 // Rows [b0, b1) of one sweep (see above); returns the residual squares of x over those rows.
 template <class Val, class V>
 [[gnu::noinline]] Rgb sor_rows(const FFMatrixView& F, const V& x, V& y, const V& rho, const V& e,
@@ -33,7 +108,6 @@ template <class Val, class V>
   constexpr int C = V::kChannels;
   const size_t n = x.size();
   const T scale = T(F.scale);
-  const auto* data = static_cast<const typename Val::stored*>(F.data);
   // x one contiguous array per channel (AOS de-interleaved once per sweep into this thread's scratch, as
   // matvec_rows does), and this block's changes y - x so far, one array per channel.
   const T* xc[3] = {x.data(0), x.data(1), x.data(2)};
@@ -47,7 +121,7 @@ template <class Val, class V>
   static thread_local std::vector<T> delta;
   const size_t len = b1 - b0;
   delta.assign(3 * len, T(0));
-  T* dc[3] = {delta.data(), delta.data() + len, delta.data() + 2 * len};
+  T* const dc[3] = {delta.data(), delta.data() + len, delta.data() + 2 * len};
   Rgb r2{0, 0, 0};
   auto needed = [&](size_t i) { return !(rho(i, 0) == 0 && rho(i, C - 1) == 0 && (C == 1 || rho(i, 1) == 0)); };
   // Row i's update from its sums so = Σ_j F_ij x_j and sd = Σ_{b0<=j<i} F_ij (y_j - x_j), and its residual.
@@ -62,62 +136,10 @@ template <class Val, class V>
       r2[ch] += res * res;
     }
   };
-  // Σ_{b0<=j<i} F_ij δ_j for a dense row, from cache (the row was just summed against x).
-  auto segment = [&](const typename Val::stored* row, size_t i, T (&sd)[3]) {
-    const typename Val::stored* seg = row + b0;
-    const size_t m = i - b0;
-    if constexpr (C == 3) {
-      T d0 = 0, d1 = 0, d2 = 0;
-      const T *e0 = dc[0], *e1 = dc[1], *e2 = dc[2];
-#pragma omp simd reduction(+ : d0, d1, d2)
-      for (size_t j = 0; j < m; ++j) {
-        const T f = Val::get(seg, j);
-        d0 += f * e0[j];
-        d1 += f * e1[j];
-        d2 += f * e2[j];
-      }
-      sd[0] = d0, sd[1] = d1, sd[2] = d2;
-    } else {
-      T d0 = 0;
-      const T* e0 = dc[0];
-#pragma omp simd reduction(+ : d0)
-      for (size_t j = 0; j < m; ++j) d0 += T(Val::get(seg, j)) * e0[j];
-      sd[0] = d0;
-    }
-  };
-  if (F.storage != FFStorage::dense) {
-    for (size_t i = b0; i < b1; ++i) {
-      T so[3] = {0, 0, 0}, sd[3] = {0, 0, 0};
-      if (needed(i))
-        for_each_entry(F, i, [&](size_t k, size_t j) {
-          const T f = Val::get(data, k);
-          for (int ch = 0; ch < C; ++ch) so[ch] += f * xc[ch][j];
-          if (j >= b0 && j < i)
-            for (int ch = 0; ch < C; ++ch) sd[ch] += f * dc[ch][j - b0];
-        });
-      update(i, so, sd);
-    }
-  } else {
-    // Dense: four consecutive rows summed against x in one pass (linalg.hpp's sums4, the kernel of a Jacobi step,
-    // so so is Jacobi's sum to the bit), then each row's segment against the changes, in order. A group past b1
-    // repeats its first row in the missing places, as matvec_rows does.
-    for (size_t i0 = b0; i0 < b1; i0 += kGroup) {
-      const size_t rows_here = std::min(kGroup, b1 - i0);
-      const typename Val::stored* Fr[kGroup];
-      for (size_t r = 0; r < kGroup; ++r) Fr[r] = data + (r < rows_here ? i0 + r : i0) * n;
-      T s[kGroup][3] = {};
-      sums4<Val, C>(Fr, xc[0], xc[1], xc[2], n, s);
-      for (size_t r = 0; r < rows_here; ++r) {
-        const size_t i = i0 + r;
-        T so[3] = {0, 0, 0}, sd[3] = {0, 0, 0};
-        if (needed(i)) {
-          for (int ch = 0; ch < 3; ++ch) so[ch] = s[r][ch];
-          segment(Fr[r], i, sd);
-        }
-        update(i, so, sd);
-      }
-    }
-  }
+  if (F.storage != FFStorage::dense)
+    sor_detail::sparse_block<Val, C>(F, xc, dc, b0, b1, needed, update);
+  else
+    sor_detail::dense_block<Val, C>(F, n, xc, dc, b0, b1, needed, update);
   if constexpr (C == 1) r2[1] = r2[2] = r2[0];
   return r2;
 }

@@ -183,18 +183,27 @@ size_t apply_threshold(float* F, size_t n, double threshold, size_t rows) {
   return nonzero;
 }
 
-FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
-                                   const FFMatrixOptions& opt, size_t row_begin, size_t row_end)
-    : n_(n), opt_(opt) {
+namespace {
+
+// The options and sizes a matrix can be built with; a UsageError for the first that it cannot.
+void check_matrix_options(const FFMatrixOptions& opt, size_t n, size_t reflectivity_size) {
   if (opt.max_step < 1 || opt.max_step > kMaxStep)
     throw hpcgi::UsageError("form-factor matrix: a compressed step must lie in 1.." + std::to_string(kMaxStep));
   if (opt.max_length < 1 || opt.max_length > kMaxStep)
     throw hpcgi::UsageError("form-factor matrix: a run's length must lie in 1.." + std::to_string(kMaxStep));
   if (!(opt.threshold >= 0 && std::isfinite(opt.threshold)))
     throw hpcgi::UsageError("form-factor threshold must be finite and >= 0");
-  if (reflectivity.size() != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
+  if (reflectivity_size != n) throw hpcgi::UsageError("form-factor matrix: reflectivity of the wrong size");
   if (n > size_t(std::numeric_limits<int32_t>::max()))
     throw hpcgi::UsageError("form-factor matrix: " + std::to_string(n) + " patches exceed int32 column indices");
+}
+
+}  // namespace
+
+FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
+                                   const FFMatrixOptions& opt, size_t row_begin, size_t row_end)
+    : n_(n), opt_(opt) {
+  check_matrix_options(opt, n, reflectivity.size());
   const size_t r0 = std::min(row_begin, n), r1 = std::max(r0, std::min(row_end, n));
   row_begin_ = r0;
   row_end_ = r1;
@@ -215,23 +224,34 @@ FormFactorMatrix::FormFactorMatrix(const float* F, size_t n, const std::vector<R
     else
       u16_.resize(count);
   };
-
-  if (opt.storage == FFStorage::dense) {
-    allocate(values);
-#pragma omp parallel for schedule(static)
-    for (size_t k = 0; k < values; ++k) store(k, is_kept(F[k], opt.threshold) ? F[k] : 0.0f);
-    size_t nonzero = 0;
-#pragma omp parallel for reduction(+ : nonzero) schedule(static)
-    for (size_t k = 0; k < values; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
-    kept_ = nonzero;
-    return;
-  }
-  if (opt.storage == FFStorage::runs) {
+  if (opt.storage == FFStorage::dense)
+    build_dense(F, values, store, allocate);
+  else if (opt.storage == FFStorage::runs)
     build_runs(F, reflectivity, r0, r1, store, allocate);
-    return;
-  }
-  // CSR and compressed in two passes: the entries per row (kept values, and bridges for compressed), their prefix
-  // sums as row starts, then the entries in place.
+  else
+    build_entries(F, reflectivity, r0, r1, store, allocate);
+}
+
+// The dense storage: F's values rows r0..r1 (`values` of them), those not kept as 0.
+template <class Store, class Allocate>
+void FormFactorMatrix::build_dense(const float* F, size_t values, Store& store, Allocate& allocate) {
+  const FFMatrixOptions& opt = opt_;
+  allocate(values);
+#pragma omp parallel for schedule(static)
+  for (size_t k = 0; k < values; ++k) store(k, is_kept(F[k], opt.threshold) ? F[k] : 0.0f);
+  size_t nonzero = 0;
+#pragma omp parallel for reduction(+ : nonzero) schedule(static)
+  for (size_t k = 0; k < values; ++k) nonzero += is_kept(F[k], opt.threshold) && F[k] != 0;
+  kept_ = nonzero;
+}
+
+// CSR and compressed in two passes: the entries per row (kept values, and bridges for compressed), their prefix
+// sums as row starts, then the entries in place. Rows [r0, r1) are F's, row i at F + (i - r0)·n.
+template <class Store, class Allocate>
+void FormFactorMatrix::build_entries(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1,
+                                     Store& store, Allocate& allocate) {
+  const size_t n = n_;
+  const FFMatrixOptions& opt = opt_;
   const bool steps = opt.storage == FFStorage::compressed;
   row_start_.assign(n + 1, 0);
   size_t bridges = 0;

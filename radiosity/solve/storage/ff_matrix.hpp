@@ -226,6 +226,12 @@ class FormFactorMatrix {
   double bytes() const;                   // what it holds
 
  private:
+  // The constructor's storages (ff_matrix.cpp): dense, csr and compressed, runs.
+  template <class Store, class Allocate>
+  void build_dense(const float* F, size_t values, Store& store, Allocate& allocate);
+  template <class Store, class Allocate>
+  void build_entries(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1, Store& store,
+                     Allocate& allocate);
   template <class Store, class Allocate>
   void build_runs(const float* F, const std::vector<Rgb>& reflectivity, size_t r0, size_t r1, Store& store,
                   Allocate& allocate);

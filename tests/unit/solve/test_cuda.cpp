@@ -1,7 +1,8 @@
 // The GPU backends (cuda, cublas with and without fused, hybrid) against the serial float64 result, operation by
-// operation and through the shared methods; cuda and cublas on the sparse storages against serial's; the hybrid's ends against the pure backends bit for bit; the split of
-// the time and the bytes; and the refusals. A test that needs a GPU is skipped, with the reason, where there is
-// none; the refusals that need none run everywhere.
+// operation and through the shared methods; the hybrid's ends against the pure backends bit for bit; the split of the
+// time and the bytes; what cublas says it reads; form factors too large for the GPU. The sparse storages on the GPU
+// are test_cuda_sparse.cpp's, the refusals test_cuda_refusals.cpp's. A test that needs a GPU is skipped, with the
+// reason, where there is none.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,98 +17,12 @@
 #include "radiosity/solve/methods/methods.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "configs.hpp"
+#include "gpu_configs.hpp"
 #include "reference.hpp"
 
 using namespace radiosity;
 using namespace solve_test;
-
-namespace {
-
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
-// Why a GPU backend cannot run here (the backend's own refusal: no GPU, or a build without CUDA), or "" when it can.
-const std::string& gpu_absent() {
-  static const std::string why = [] {
-    const Problem p = random_problem(8, 1);
-    SolveConfig c;
-    c.backend = "cuda";
-    c.steps = 1;
-    try {
-      solve(p.sys, c);
-      return std::string();
-    } catch (const hpcgi::UsageError& e) {
-      const std::string what = e.what();
-      return contains(what, "needs an NVIDIA GPU") || contains(what, "is not available") ? what : std::string();
-    }
-  }();
-  return why;
-}
-#define SKIP_WITHOUT_GPU()                                                          \
-  do {                                                                              \
-    if (!gpu_absent().empty()) GTEST_SKIP() << "the GPU backends cannot run here: " << gpu_absent(); \
-  } while (0)
-
-// A GPU configuration as the registry runs it.
-struct Gpu {
-  std::string label, backend, layout;
-  bool fused = false;
-  double distribution = 0.5;
-  bool overlap = false;
-};
-const std::vector<Gpu>& every_gpu_config() {
-  static const std::vector<Gpu> all = {
-      {"cuda", "cuda", "aos"},
-      {"cublas", "cublas", "soa"},
-      {"cublas fused", "cublas", "soa", true},
-      {"hybrid d=0", "hybrid", "aos", false, 0.0},
-      {"hybrid d=0.3", "hybrid", "aos", false, 0.3},
-      {"hybrid d=0.3 overlap", "hybrid", "aos", false, 0.3, true},
-      {"hybrid d=1", "hybrid", "aos", false, 1.0},
-  };
-  return all;
-}
-
-SolveConfig config(const Gpu& g, const std::string& method, const std::string& precision, long steps) {
-  SolveConfig c = solve_config(g.backend, g.layout, method, precision, steps);
-  c.tol = 1e-6;
-  c.fused = g.fused;
-  c.distribution = g.distribution;
-  c.overlap = g.overlap;
-  c.max_iter = 5000;
-  return c;
-}
-
-SolveConfig serial_double(const std::string& method, long steps) {
-  SolveConfig c = solve_config("serial", "aos", method, "double", steps);
-  c.max_iter = 10000;
-  return c;
-}
-
-double bound(const std::string& precision) { return precision == "float" ? 1e-5 : 1e-12; }
-
-#ifdef HAVE_CUDA
-std::vector<Rgb> random_vector(size_t n, unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<Rgb> v(n);
-  for (Rgb& x : v)
-    for (double& c : x) c = u(rng);
-  return v;
-}
-#endif
-
-// max |x - y| over max |y|.
-double max_rel(const std::vector<Rgb>& x, const std::vector<Rgb>& y) {
-  double num = 0, den = 0;
-  for (size_t i = 0; i < y.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      num = std::max(num, std::abs(x[i][c] - y[i][c]));
-      den = std::max(den, std::abs(y[i][c]));
-    }
-  return num / den;
-}
-
-}  // namespace
+using namespace cuda_test;
 
 // 32 Jacobi steps as the report; n = 37 leaves a block and a tile part empty, 300 spans two tiles of x.
 TEST(CudaBackends, FixedJacobiStepsAgreeWithSerialFloat64) {
@@ -291,144 +206,4 @@ TEST(CudaBackends, FormFactorsThatDoNotFitAreRefusedBeforeAllocating) {
       EXPECT_TRUE(contains(e.what(), "GiB of GPU memory")) << e.what();
     }
   }
-}
-
-// The refusals that need no GPU: they come before the backend looks for one.
-TEST(CudaRefusals, BadRequestsAreUsageErrors) {
-  const Problem p = random_problem(10, 95);
-  auto refused = [&](const SolveConfig& c, const std::string& words) {
-    try {
-      solve(p.sys, c);
-      ADD_FAILURE() << "accepted: " << words;
-    } catch (const hpcgi::UsageError& e) {
-      EXPECT_TRUE(contains(e.what(), words)) << e.what();
-    }
-  };
-#ifdef HAVE_CUDA
-  Gpu h{"hybrid", "hybrid", "aos"};
-  refused(config(h, "bicgstab", "float", 0), "backend 'hybrid' does not run method 'bicgstab'");
-  for (double d : {1.5, -0.1, std::numeric_limits<double>::quiet_NaN()}) {
-    h.distribution = d;
-    refused(config(h, "jacobi", "float", 4), "distribution must be in [0, 1]");
-  }
-  refused(config({"", "cuda", "aos", true}, "jacobi", "float", 4), "fused applies to backend cublas");
-  refused(config({"", "hybrid", "aos", true}, "jacobi", "float", 4), "fused applies to backend cublas");
-  refused(config({"", "cublas", "aos"}, "jacobi", "float", 4), "does not run layout 'aos'");
-  refused(config({"", "cuda", "soa"}, "jacobi", "float", 4), "does not run layout 'soa'");
-#else
-  for (const char* b : {"cuda", "cublas", "hybrid"}) refused(config({"", b, "aos"}, "jacobi", "float", 4), "not available");
-#endif
-}
-
-TEST(CudaRefusals, WithoutAGpuEachGpuBackendSaysSo) {
-  if (gpu_absent().empty()) GTEST_SKIP() << "a GPU is present: this test checks the refusal where there is none";
-#ifndef HAVE_CUDA
-  GTEST_SKIP() << "built without CUDA: " << gpu_absent();
-#endif
-  const Problem p = random_problem(10, 97);
-  for (const Gpu& g : every_gpu_config()) {
-    SCOPED_TRACE(g.label);
-    try {
-      solve(p.sys, config(g, "jacobi", "float", 4));
-      ADD_FAILURE() << "accepted";
-    } catch (const hpcgi::UsageError& e) {
-      EXPECT_TRUE(contains(e.what(), "needs an NVIDIA GPU")) << e.what();
-      EXPECT_TRUE(contains(e.what(), "backend " + g.backend)) << e.what();
-    }
-  }
-}
-
-// The sparse storages on the GPU (sparse_device.cuh): cuSPARSE for csr float32 in float, our warp-per-row kernel for
-// the rest, against backend serial on the same stored values (the same matrix object): other summation orders, so
-// within 1e-6 relative in float (1e-12 in double), not bits. n = 300 with 70% zeros in runs gives rows of 0 to
-// about 100 entries (partial chunks of 32); a row of reflectivity 0 is empty. The record names the product.
-TEST(CudaSparse, SparseStoragesGiveSerialsAnswer) {
-  SKIP_WITHOUT_GPU();
-  Problem p = random_problem(300, 83);
-  std::mt19937_64 rng(84);
-  std::uniform_real_distribution<double> u(0, 1);
-  for (float& f : p.F)
-    if (u(rng) < 0.7) f = 0;
-  p.sys.reflectivity[5] = {0, 0, 0};
-  struct Stored {
-    FFStorage storage;
-    FFValues values;
-  };
-  for (const Stored st : {Stored{FFStorage::csr, FFValues::float32}, Stored{FFStorage::compressed, FFValues::float32},
-                          Stored{FFStorage::compressed, FFValues::float16}, Stored{FFStorage::csr, FFValues::bfloat16}}) {
-    FFMatrixOptions o;
-    o.storage = st.storage;
-    o.values = st.values;
-    const FormFactorMatrix m(p.F.data(), p.sys.n, p.sys.reflectivity, o);
-    System sys = p.sys;
-    sys.matrix = m.view();
-    for (const char* precision : {"float", "double"}) {
-      SolveConfig ref = serial_double("jacobi", 30);
-      ref.precision = parse_precision(precision);
-      const SolveResult want = solve(sys, ref);
-      for (const Gpu& g : {Gpu{"cuda", "cuda", "aos"}, Gpu{"cublas", "cublas", "soa"}}) {
-        SCOPED_TRACE(g.label + " " + to_string(st.storage) + " " + to_string(st.values) + " " + precision);
-        const SolveResult r = solve(sys, config(g, "jacobi", precision, 30));
-        EXPECT_EQ(r.status, SolveStatus::steps_done);
-        EXPECT_LE(max_rel(r.B, want.B), std::string(precision) == "float" ? 1e-6 : 1e-12);
-        const bool by_cusparse = st.storage == FFStorage::csr && st.values == FFValues::float32 &&
-                                 std::string(precision) == "float";
-        EXPECT_EQ(contains(r.backend_info.at("product"), "cusparse"), by_cusparse) << r.backend_info.at("product");
-        EXPECT_DOUBLE_EQ(r.matrix_bytes, double(m.view().row_start[p.sys.n]) *
-                                                 (value_bytes(st.values) + (st.storage == FFStorage::csr ? 4 : 2)) +
-                                             (by_cusparse ? 4.0 : 8.0) * double(p.sys.n + 1));
-      }
-    }
-    // BiCG-STAB to a tolerance on the same storage
-    const SolveResult b = solve(sys, config({"cuda", "cuda", "aos"}, "bicgstab", "double", 0));
-    EXPECT_EQ(b.status, SolveStatus::converged);
-  }
-}
-
-// Dense 16-bit F is read by the CPU backends only; hybrid reads dense float32 only. Refused before any GPU is
-// looked for, so this runs everywhere.
-TEST(CudaSparse, StoragesTheGpuBackendsDoNotReadAreRefused) {
-  const Problem p = random_problem(20, 85);
-  for (const auto& [storage, backend] : {std::pair{FFStorage::dense, "cuda"}, std::pair{FFStorage::dense, "cublas"},
-                                         std::pair{FFStorage::csr, "hybrid"}}) {
-    FFMatrixOptions o;
-    o.storage = storage;
-    o.values = storage == FFStorage::dense ? FFValues::float16 : FFValues::float32;
-    const FormFactorMatrix m(p.F.data(), p.sys.n, p.sys.reflectivity, o);
-    System sys = p.sys;
-    sys.matrix = m.view();
-    SolveConfig c;
-    c.backend = backend;
-    c.layout = std::string(backend) == "cublas" ? Layout::soa : Layout::aos;
-    c.steps = 2;
-    try {
-      solve(sys, c);
-      ADD_FAILURE() << backend << " accepted " << to_string(storage);
-    } catch (const hpcgi::UsageError& e) {
-      EXPECT_TRUE(contains(e.what(), "does not read") || contains(e.what(), "not available")) << e.what();
-    }
-  }
-}
-
-// A system with neither dense F nor a stored matrix is refused by each GPU factory itself (defence behind the
-// registry's storage check above): one clear UsageError, never a null F read on the device. Needs a GPU: the
-// factories look for one first.
-TEST(CudaRefusals, EachGpuFactoryRefusesASystemWithoutF) {
-  SKIP_WITHOUT_GPU();
-#ifdef HAVE_CUDA
-  System sys = random_problem(10, 99).sys;
-  sys.matrix.data = nullptr;  // a dense matrix without its values
-  for (const Gpu& g : every_gpu_config()) {
-    SCOPED_TRACE(g.label);
-    const SolveConfig c = config(g, "jacobi", "float", 4);
-    try {
-      if (g.backend == "cuda") make_cuda<float>(sys, c, 4);
-      else if (g.backend == "cublas") make_cublas<float>(sys, c, 4);
-      else make_hybrid<float>(sys, c, 4);
-      ADD_FAILURE() << "accepted a system without F";
-    } catch (const hpcgi::UsageError& e) {
-      EXPECT_TRUE(contains(e.what(), "dense form factors are read as the file's float32 values")) << e.what();
-    }
-  }
-#endif
 }

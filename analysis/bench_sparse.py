@@ -1,0 +1,56 @@
+"""The bench-sparse table of `make bench` (issue 17): per scene and storage of F, a Jacobi step's bytes, time and
+bandwidth against the read sweep measured next to it; and issue 17's target lines."""
+import pandas as pd
+
+from analysis import consistency
+from analysis.bench_records import ci_of, limit_next_to, median_of, on_host
+from analysis.records import load
+
+# Issue 17's: CSR float32 on room3 within 1.25x of its matrix bytes at the read-sweep bandwidth next to it; the
+# compressed storage (compressed or runs) at least 4x faster per Jacobi step than dense float32 on room3, in the same
+# run.
+CSR_SLACK, COMPRESSED_VS_DENSE = 1.25, 4.0
+
+
+def sparse_rows(preset, host, stream):
+    """The bench-sparse table (issue 17): per scene and storage, the bytes of F a step reads, the time per step, its
+    bandwidth, the read sweep next to it and the time over its limit (bytes / read sweep); and the target lines.
+    Each repeat is set against the stream records beside it (slurm/bench runs the list in rounds), then medians."""
+    df = on_host(load("bench-sparse", preset), host)
+    if not len(df):
+        return [], []
+    out, targets, per = [], [], {}
+    df = df.assign(scene_name=df["params.scene"].map(lambda x: x.rsplit("/", 1)[-1]))
+    for scene, g in df.groupby("scene_name", sort=False):
+        for k, ((storage, values), r) in enumerate(g.groupby(["params.storage", "params.ff_precision"], sort=False)):
+            nbytes = float(r["perf.matrix_bytes"].iloc[0])
+            read = [limit_next_to(stream, r.iloc[[i]], "perf.read_GBps") for i in range(len(r))]
+            t = median_of(r, "times_s.per_iteration")
+            over = float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], read)])
+                         .median())
+            per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()))
+            consistency.quote(f"{scene}: one Jacobi step, OpenMP, float (ms)",
+                              f"make bench ({preset}), sparse table, {scene} {storage} {values}",
+                              1e3 * r["times_s.per_iteration"], r)
+            out.append({"problem": f"Jacobi step, {scene}, {int(r['params.patches'].iloc[0])} patches" if k == 0
+                        else "", "storage": f"{storage} {values}", "MB of F per step": nbytes / 1e6,
+                        # the row starts left out (runs: two arrays of them)
+                        "bytes per entry": (nbytes - (16 if storage == "runs" else 8) *
+                                            (int(r["params.patches"].iloc[0]) + 1)) /
+                        float(r["result.kept"].iloc[0]) if storage != "dense" else None,
+                        "ms per step": 1e3 * t, "95% interval (ms)": ci_of(r, "times_s.per_iteration", 1e3),
+                        "GB/s": nbytes / t / 1e9,
+                        "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
+                        "repeats": len(r)})
+    csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
+    if csr:
+        targets.append(f"CSR float32 room3: {csr[1]:.2f}x its matrix bytes at the read sweep next to it "
+                       f"({csr[2]:.1f} GB/s; target <= {CSR_SLACK}x): {'met' if csr[1] <= CSR_SLACK else 'NOT met'}")
+    for storage, values in (("runs", "float16"), ("runs", "float32"), ("compressed", "float16"), ("compressed", "float32")):
+        comp = per.get(("room3.xml", storage, values))
+        if comp and dense:
+            x = dense[0] / comp[0]
+            targets.append(f"{storage} {values} room3: {x:.2f}x faster per Jacobi step than dense float32 "
+                           f"({1e3 * comp[0]:.2f} against {1e3 * dense[0]:.2f} ms; target >= {COMPRESSED_VS_DENSE:g}x)"
+                           f": {'met' if x >= COMPRESSED_VS_DENSE else 'NOT met'}")
+    return out, targets
