@@ -82,9 +82,111 @@ inline std::pair<size_t, size_t> entry_block(const int64_t* row_start, size_t r0
   return {first(t), first(t + 1)};
 }
 
+// A row's sums s[0..C) over entries [k0, k1), one way per instruction set, each a struct with one static row():
+//   PlainSparseSums: a plain loop, every T and channel count;
+//   Avx2SparseSums (float, 3 channels): two entries to a 256-bit register (entries k and k + 4 of each group of 8:
+//     one in-lane vpermilps spreads F's values), four accumulators keep four multiply-adds in flight;
+//   Avx512SparseSums (float, 3 channels): four entries to a 512-bit register (one vpermps spreads F's values over
+//     their 128-bit lanes), 16 entries a pass into four accumulators. (Compressed's
+//     columns summed four at a time off the chain of adds, or 16 in a vector, measured no faster on room3: the
+//     loads and inserts of the records, not that chain, set the pace.)
+// SparseSums<Val, T, C> is the best this build has; the tests call the others by name.
+struct PlainSparseSums {
+  template <class Val, class Cursor, class T, int C>
+  static void row(const typename Val::stored* F, Cursor& cur, const T* x4, size_t k0, size_t k1, T (&s)[4]) {
+    for (size_t k = k0; k < k1; ++k) {
+      const T f = T(Val::get(F, k));
+      const size_t j = cur.next(k);
+      if constexpr (C == 3) {
+        s[0] += f * x4[4 * j];
+        s[1] += f * x4[4 * j + 1];
+        s[2] += f * x4[4 * j + 2];
+      } else {
+        s[0] += f * x4[j];
+      }
+    }
+  }
+};
+
+#ifdef HPCGI_AVX2_SUMS
+struct Avx2SparseSums {
+  template <class Val, class Cursor, class T, int C>
+  static void row(const typename Val::stored* F, Cursor& cur, const float* x4, size_t k0, size_t k1,
+                  float (&s)[4]) {
+    static_assert(std::is_same_v<T, float> && C == 3, "the AVX2 sums are float, three channels");
+    __m256 acc0 = _mm256_setzero_ps(), acc1 = acc0, acc2 = acc0, acc3 = acc0;
+    auto pair = [&](size_t ja, size_t jb) {
+      return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(x4 + 4 * ja)), _mm_load_ps(x4 + 4 * jb), 1);
+    };
+    size_t k = k0;
+    for (; k + 8 <= k1; k += 8) {
+      const __m256 f = Val::load8(F + k);  // lanes 0-3 entries k..k+3, lanes 4-7 entries k+4..k+7
+      size_t j[8];
+      for (int q = 0; q < 8; ++q) j[q] = cur.next(k + size_t(q));
+      acc0 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0x00), pair(j[0], j[4]), acc0);
+      acc1 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0x55), pair(j[1], j[5]), acc1);
+      acc2 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0xaa), pair(j[2], j[6]), acc2);
+      acc3 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0xff), pair(j[3], j[7]), acc3);
+    }
+    const __m256 acc = _mm256_add_ps(_mm256_add_ps(acc0, acc1), _mm256_add_ps(acc2, acc3));
+    __m128 sum = _mm_add_ps(_mm256_castps256_ps128(acc), _mm256_extractf128_ps(acc, 1));
+    for (; k < k1; ++k) sum = _mm_fmadd_ps(_mm_set1_ps(Val::get(F, k)), _mm_load_ps(x4 + 4 * cur.next(k)), sum);
+    _mm_storeu_ps(s, sum);
+  }
+};
+#endif
+
+#ifdef HPCGI_AVX512_SUMS
+struct Avx512SparseSums {
+  template <class Val, class Cursor, class T, int C>
+  static void row(const typename Val::stored* F, Cursor& cur, const float* x4, size_t k0, size_t k1,
+                  float (&s)[4]) {
+    static_assert(std::is_same_v<T, float> && C == 3, "the AVX-512 sums are float, three channels");
+    const __m512i spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
+    const __m512i four = _mm512_set1_epi32(4);
+    __m512 acc[4] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()};
+    size_t k = k0;
+    for (; k + 16 <= k1; k += 16) {
+      _mm_prefetch(reinterpret_cast<const char*>(F + k) + kSparsePrefetchBytes, _MM_HINT_T0);
+      _mm_prefetch(static_cast<const char*>(cur.at(k)) + kSparsePrefetchBytes, _MM_HINT_T0);
+      const __m512 f = Val::load16(F + k, __mmask16(0xffff));
+      __m512i lane = spread;
+      for (int g = 0; g < 4; ++g, lane = _mm512_add_epi32(lane, four)) {
+        const size_t q = k + 4 * size_t(g);
+        const size_t jg[4] = {cur.next(q), cur.next(q + 1), cur.next(q + 2), cur.next(q + 3)};
+        __m512 r = _mm512_zextps128_ps512(_mm_load_ps(x4 + 4 * jg[0]));
+        r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * jg[1]), 1);
+        r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * jg[2]), 2);
+        r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * jg[3]), 3);
+        acc[g] = _mm512_fmadd_ps(_mm512_maskz_permutexvar_ps(0xffff, lane, f), r, acc[g]);  // (maskz: GCC 12 warns on the plain form)
+      }
+    }
+    const __m512 a = _mm512_add_ps(_mm512_add_ps(acc[0], acc[1]), _mm512_add_ps(acc[2], acc[3]));
+    alignas(64) float lane4[16];  // (GCC 12's _mm512_extractf32x4_ps warns: -Wmaybe-uninitialized)
+    _mm512_store_ps(lane4, a);
+    __m128 sum = _mm_add_ps(_mm_add_ps(_mm_load_ps(lane4), _mm_load_ps(lane4 + 4)),
+                            _mm_add_ps(_mm_load_ps(lane4 + 8), _mm_load_ps(lane4 + 12)));
+    for (; k < k1; ++k) sum = _mm_fmadd_ps(_mm_set1_ps(Val::get(F, k)), _mm_load_ps(x4 + 4 * cur.next(k)), sum);
+    _mm_storeu_ps(s, sum);
+  }
+};
+#endif
+
+// The best sums this build has for T and C.
+#if defined(HPCGI_AVX512_SUMS)
+template <class T, int C>
+using SparseSums = std::conditional_t<std::is_same_v<T, float> && C == 3, Avx512SparseSums, PlainSparseSums>;
+#elif defined(HPCGI_AVX2_SUMS)
+template <class T, int C>
+using SparseSums = std::conditional_t<std::is_same_v<T, float> && C == 3, Avx2SparseSums, PlainSparseSums>;
+#else
+template <class T, int C>
+using SparseSums = PlainSparseSums;
+#endif
+
 // Rows [i0, i1) of the product, F's entries as Val (stored_values.hpp) and columns as Cols, x4: x as float4 (or
-// double4) records. Out of line, so that every caller runs the same machine code for a row.
-template <class Val, class Cols, class V>
+// double4) records, each row's sums by Sums. Out of line, so that every caller runs the same machine code for a row.
+template <class Val, class Cols, class V, class Sums = SparseSums<typename V::value_type, V::kChannels>>
 [[gnu::noinline]] void sparse_rows(const typename Val::stored* F, Cols cols, const int64_t* start,
                                    const typename V::value_type* x4, const V& x, V& y, const V& rho, const V& e,
                                    typename V::value_type a, typename V::value_type c, typename V::value_type d,
@@ -92,74 +194,9 @@ template <class Val, class Cols, class V>
   using T = typename V::value_type;
   constexpr int C = V::kChannels;
   for (size_t i = i0; i < i1; ++i) {
-    const size_t k0 = size_t(start[i]), k1 = size_t(start[i + 1]);
     auto cur = cols.row();
     T s[4] = {0, 0, 0, 0};
-    size_t k = k0;
-#ifdef HPCGI_AVX512_SUMS
-    if constexpr (std::is_same_v<T, float> && C == 3) {
-      // 16 entries a pass, four to a 512-bit register (entry q's value spread over its 128-bit lane by one
-      // vpermps), their records from L2; F's values and columns asked for kSparsePrefetchBytes ahead.
-      const __m512i spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
-      const __m512i four = _mm512_set1_epi32(4);
-      __m512 acc[4] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()};
-      for (; k + 16 <= k1; k += 16) {
-        _mm_prefetch(reinterpret_cast<const char*>(F + k) + kSparsePrefetchBytes, _MM_HINT_T0);
-        _mm_prefetch(static_cast<const char*>(cur.at(k)) + kSparsePrefetchBytes, _MM_HINT_T0);
-        const __m512 f = Val::load16(F + k, __mmask16(0xffff));
-        __m512i lane = spread;
-        for (int g = 0; g < 4; ++g, lane = _mm512_add_epi32(lane, four)) {
-          const size_t q = k + 4 * size_t(g);
-          const size_t j0 = cur.next(q), j1 = cur.next(q + 1), j2 = cur.next(q + 2), j3 = cur.next(q + 3);
-          __m512 r = _mm512_zextps128_ps512(_mm_load_ps(x4 + 4 * j0));
-          r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * j1), 1);
-          r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * j2), 2);
-          r = _mm512_insertf32x4(r, _mm_load_ps(x4 + 4 * j3), 3);
-          acc[g] = _mm512_fmadd_ps(_mm512_maskz_permutexvar_ps(0xffff, lane, f), r, acc[g]);  // (maskz: GCC 12 warns on the plain form)
-        }
-      }
-      const __m512 a = _mm512_add_ps(_mm512_add_ps(acc[0], acc[1]), _mm512_add_ps(acc[2], acc[3]));
-      alignas(64) float lane4[16];  // (GCC 12's _mm512_extractf32x4_ps warns: -Wmaybe-uninitialized)
-      _mm512_store_ps(lane4, a);
-      __m128 sum = _mm_add_ps(_mm_add_ps(_mm_load_ps(lane4), _mm_load_ps(lane4 + 4)),
-                              _mm_add_ps(_mm_load_ps(lane4 + 8), _mm_load_ps(lane4 + 12)));
-      for (; k < k1; ++k) sum = _mm_fmadd_ps(_mm_set1_ps(Val::get(F, k)), _mm_load_ps(x4 + 4 * cur.next(k)), sum);
-      _mm_storeu_ps(s, sum);
-    } else
-#elif defined(HPCGI_AVX2_SUMS)
-    if constexpr (std::is_same_v<T, float> && C == 3) {
-      __m256 acc0 = _mm256_setzero_ps(), acc1 = acc0, acc2 = acc0, acc3 = acc0;
-      auto pair = [&](size_t ja, size_t jb) {
-        return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(x4 + 4 * ja)), _mm_load_ps(x4 + 4 * jb), 1);
-      };
-      for (; k + 8 <= k1; k += 8) {
-        const __m256 f = Val::load8(F + k);  // lanes 0-3 entries k..k+3, lanes 4-7 entries k+4..k+7
-        size_t j[8];
-        for (int q = 0; q < 8; ++q) j[q] = cur.next(k + size_t(q));
-        acc0 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0x00), pair(j[0], j[4]), acc0);
-        acc1 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0x55), pair(j[1], j[5]), acc1);
-        acc2 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0xaa), pair(j[2], j[6]), acc2);
-        acc3 = _mm256_fmadd_ps(_mm256_permute_ps(f, 0xff), pair(j[3], j[7]), acc3);
-      }
-      const __m256 acc = _mm256_add_ps(_mm256_add_ps(acc0, acc1), _mm256_add_ps(acc2, acc3));
-      __m128 sum = _mm_add_ps(_mm256_castps256_ps128(acc), _mm256_extractf128_ps(acc, 1));
-      for (; k < k1; ++k) sum = _mm_fmadd_ps(_mm_set1_ps(Val::get(F, k)), _mm_load_ps(x4 + 4 * cur.next(k)), sum);
-      _mm_storeu_ps(s, sum);
-    } else
-#endif
-    {
-      for (; k < k1; ++k) {
-        const T f = T(Val::get(F, k));
-        const size_t j = cur.next(k);
-        if constexpr (C == 3) {
-          s[0] += f * x4[4 * j];
-          s[1] += f * x4[4 * j + 1];
-          s[2] += f * x4[4 * j + 2];
-        } else {
-          s[0] += f * x4[j];
-        }
-      }
-    }
+    Sums::template row<Val, decltype(cur), T, C>(F, cur, x4, size_t(start[i]), size_t(start[i + 1]), s);
     y(i, 0) = a * x(i, 0) + c * rho(i, 0) * s[0] + d * e(i, 0);
     if constexpr (C == 3) {
       y(i, 1) = a * x(i, 1) + c * rho(i, 1) * s[1] + d * e(i, 1);
