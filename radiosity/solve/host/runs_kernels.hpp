@@ -60,7 +60,7 @@ inline void prefetch_run(const void* f) {
 }
 #endif
 
-#if defined(HPCGI_AVX2_SUMS) && !defined(HPCGI_AVX512_SUMS)
+#ifdef HPCGI_AVX2_SUMS
 // kTailMasks[r]: 32 lanes (four blocks of 8), the first r set (r in 0..32).
 struct TailMasks {
   alignas(64) int32_t m[33][32];
@@ -102,9 +102,10 @@ struct PlainRunSums {
 // AVX-512: a run of up to 16 values (every run the storage builds: kRunMaxLength) in ONE block under a mask (_bzhi:
 // the run's lanes), so there is no branch on a run's length, and no lane past the run is loaded or added; a longer
 // run (a file written with longer runs) takes full blocks first. Runs alternate between two sets of three
-// accumulators (B), so that consecutive runs' multiply-adds do not wait for each other.
+// accumulators (B), so that consecutive runs' multiply-adds do not wait for each other (four sets, taken in turn,
+// measured no faster on room3: loaded machine, development only).
 template <class Val, int C>
-struct SimdRunSums {
+struct Avx512RunSums {
   __m512 s[2][3] = {{_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()},
                     {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()}};
   template <int B>
@@ -135,11 +136,13 @@ struct SimdRunSums {
     for (int ch = 0; ch < 3; ++ch) out[ch] = lanes(_mm512_add_ps(s[0][ch], s[1][ch]));
   }
 };
-#elif defined(HPCGI_AVX2_SUMS)
+#endif
+
+#ifdef HPCGI_AVX2_SUMS
 // AVX2: blocks of 8 while more than 32 values are left, then the last 1-32 in four blocks of 8 under masks
 // (kTailMasks[left]: F loaded whole and masked, x by masked loads), again no branch on a run's length up to 32.
 template <class Val, int C>
-struct SimdRunSums {
+struct Avx2RunSums {
   __m256 a0 = _mm256_setzero_ps(), a1 = a0, a2 = a0, b0 = a0, b1 = a0, b2 = a0;
   // Two blocks of 8 at q, each under its mask (full blocks: all lanes).
   void pair(const typename Val::stored* f, const float* p0, const float* p1, const float* p2, __m256i ma,
@@ -181,17 +184,21 @@ struct SimdRunSums {
 };
 #endif
 
-#ifdef HPCGI_AVX2_SUMS
+#if defined(HPCGI_AVX512_SUMS)
 template <class Val, class T, int C>
-using RunSums = std::conditional_t<std::is_same_v<T, float>, SimdRunSums<Val, C>, PlainRunSums<Val, T, C>>;
+using RunSums = std::conditional_t<std::is_same_v<T, float>, Avx512RunSums<Val, C>, PlainRunSums<Val, T, C>>;
+#elif defined(HPCGI_AVX2_SUMS)
+template <class Val, class T, int C>
+using RunSums = std::conditional_t<std::is_same_v<T, float>, Avx2RunSums<Val, C>, PlainRunSums<Val, T, C>>;
 #else
 template <class Val, class T, int C>
 using RunSums = PlainRunSums<Val, T, C>;
 #endif
 
-// Rows [i0, i1) of the product, F's values as Val (stored_values.hpp), x as one array per channel (xc). Out of line,
-// so that every caller runs the same machine code for a row.
-template <class Val, class V>
+// Rows [i0, i1) of the product, F's values as Val (stored_values.hpp), x as one array per channel (xc), each row's
+// sums by Sums (the build's best; the tests name the others). Out of line, so that every caller runs the same machine
+// code for a row.
+template <class Val, class V, class Sums = RunSums<Val, typename V::value_type, V::kChannels>>
 [[gnu::noinline]] void runs_rows(const typename Val::stored* F, const FFRun* run, const int64_t* start,
                                  const int64_t* run_start, const typename V::value_type* const (&xc)[3], const V& x,
                                  V& y, const V& rho, const V& e, typename V::value_type a, typename V::value_type c,
@@ -199,7 +206,7 @@ template <class Val, class V>
   using T = typename V::value_type;
   constexpr int C = V::kChannels;
   for (size_t i = i0; i < i1; ++i) {
-    RunSums<Val, T, C> acc;
+    Sums acc;
     const typename Val::stored* f = F + size_t(start[i]);
     size_t j = 0;
     auto add = [&](auto b, const FFRun& r) {
