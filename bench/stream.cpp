@@ -4,7 +4,7 @@
 //   triad  a = b + s·c   counted as 24 bytes per element (2 reads, 1 write; STREAM's convention: the line that
 //                        a write allocates is not counted, so the true traffic is 32 bytes where stores allocate)
 //   read   Σ a           8 bytes per element (a read-only sweep, the pattern of a matrix-vector product; each
-//                        thread reads its block as four streams, see read_block)
+//                        thread reads its block as four streams, each line asked for ahead, see read_block)
 // Each sweep runs --trials times; the record keeps the best (STREAM's figure) and the median trial. The arrays are
 // first touched by the same static schedule as the sweeps, and the results are checked after the timing.
 // --device gpu runs the same two sweeps in the GPU's memory (bench/stream_gpu.cu), timed by CUDA events.
@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -32,6 +33,7 @@ namespace {
 struct Args : hpcgi::record::Options {
   long size = 1L << 25;  // elements per array: 256 MiB of doubles, 8 times a 32 MiB last-level cache
   int trials = 20;
+  long read_prefetch = 4096;  // bytes ahead the read sweep asks for each line (0: none)
   int threads = 0;
   std::string device = "cpu";
 };
@@ -41,22 +43,36 @@ struct Stats {
 };
 
 // The read sweep of the calling thread: its block of a (the split of schedule(static) that first touched it), in
-// kStreams parts read side by side. One stream per core leaves bandwidth unused, as a core keeps too few misses in
-// flight (on this project's 2-core EPYC VM four streams per core read about 1.8 times as fast as one); triad's
-// three arrays are three streams already. simd: partial sums per vector lane; a plain sum is one chain of
-// dependent adds, bound by their latency.
+// kStreams parts read side by side, each line asked for --read-prefetch bytes ahead. One stream per core leaves bandwidth
+// unused, as a core keeps too few misses in flight (on this project's 2-core EPYC VM four streams per core read about
+// 1.8 times as fast as one); and the hardware's prefetch alone kept the sweep below what the dense Jacobi product,
+// which prefetches its rows (linalg.hpp, kPrefetchBytes), streams (issue 37: dense F at 1.28 times the sweep), so the
+// sweep asks for its lines ahead as the kernels do (--read-prefetch bytes; 0: the hardware's prefetch alone, the sweep
+// before issue 37). triad's three arrays are three streams already.
 constexpr int kStreams = 4;
-double read_block(const double* a, long n) {
+constexpr long kLine = 64 / sizeof(double);  // doubles a cache line
+typedef double Line __attribute__((vector_size(64)));  // a line's 8 doubles (AVX-512: one register; AVX2: two)
+double read_block(const double* a, long n, long prefetch_bytes) {
   const long t = omp_get_thread_num(), nt = omp_get_num_threads(), q = n / nt, r = n % nt;
   const long begin = t * q + std::min(t, r), size = q + (t < r ? 1 : 0), len = size / kStreams;
   const double* p = a + begin;
-  double s[kStreams] = {};
-#pragma omp simd reduction(+ : s[:kStreams])
-  for (long i = 0; i < len; ++i)
-    for (int k = 0; k < kStreams; ++k) s[k] += p[k * len + i];
+  const long ahead = prefetch_bytes / long(sizeof(double));
+  Line s[kStreams] = {};  // partial sums per lane: a plain sum is one chain of dependent adds
+  long i = 0;
+  for (; i + kLine <= len; i += kLine)  // a line of each stream a pass, the line `ahead` further asked for
+    for (int k = 0; k < kStreams; ++k) {
+      const double* line = p + k * len + i;
+      if (ahead > 0) __builtin_prefetch(line + ahead);  // (past the block: a prefetch never faults)
+      Line v;
+      std::memcpy(&v, line, sizeof v);
+      s[k] += v;
+    }
   double sum = 0;
-  for (int k = 0; k < kStreams; ++k) sum += s[k];
-  for (long i = kStreams * len; i < size; ++i) sum += p[i];  // the remainder
+  for (int k = 0; k < kStreams; ++k) {
+    for (long l = i; l < len; ++l) sum += p[k * len + l];  // the last values of each stream
+    for (long l = 0; l < kLine; ++l) sum += s[k][l];
+  }
+  for (long l = kStreams * len; l < size; ++l) sum += p[l];  // the remainder
   return sum;
 }
 
@@ -88,7 +104,7 @@ bool cpu_sweeps(const Args& a, std::vector<double>& triad_t, std::vector<double>
     t.reset();
     double acc = 0;
 #pragma omp parallel reduction(+ : acc)
-    acc += read_block(x, n);
+    acc += read_block(x, n, a.read_prefetch);
     read_t.push_back(t.seconds());
     sum = acc;
   }
@@ -123,6 +139,7 @@ int run(const Args& a) {
   nlohmann::json rec = hpcgi::record::make("stream");
   rec["params"] = {{"size", n}, {"array_bytes", 8.0 * n}, {"trials", a.trials}, {"threads", threads},
                    {"precision", "double"}, {"device", a.device}};
+  if (!gpu) rec["params"]["read_sweep"] = {{"streams_per_thread", kStreams}, {"prefetch_bytes", a.read_prefetch}};
   rec["result"] = {{"valid", valid}};
   rec["times_s"] = {{"triad_best", tr.best}, {"triad_median", tr.median}, {"read_best", rd.best},
                     {"read_median", rd.median}};
@@ -163,6 +180,9 @@ int main(int argc, char** argv) {
   app.add_option("--size", a.size, "elements (doubles) per array; 3 arrays")
       ->check(hpcgi::integer_in(1LL << 10, 1LL << 36))->capture_default_str();
   app.add_option("--trials", a.trials, "sweeps of each kind")->check(hpcgi::integer_in(1, 100000))->capture_default_str();
+  app.add_option("--read-prefetch", a.read_prefetch,
+                 "bytes ahead of each line the read sweep asks for (0: the hardware's prefetch alone)")
+      ->check(hpcgi::integer_in(0, 1LL << 20))->capture_default_str();
   app.add_option("--threads", a.threads, "OpenMP threads (default: OMP_NUM_THREADS or all cores)")
       ->check(hpcgi::integer_in(1, 4096));
   app.add_option("--device", a.device, "cpu: the CPU's OpenMP threads; gpu: the GPU's memory (CUDA events)")

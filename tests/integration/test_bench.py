@@ -31,7 +31,21 @@ def test_stream_measures_and_records(tmp_path):
     assert rec["perf"]["triad_GBps"] >= rec["perf"]["triad_median_GBps"] > 0
 
 
-@pytest.mark.parametrize("args", [["--size", "0"], ["--trials", "0"], ["--threads", "x"], ["--bogus"]])
+@pytest.mark.parametrize("prefetch", [0, 64, 4096])
+def test_stream_read_sweep_sums_every_element_with_and_without_prefetch(tmp_path, prefetch):
+    """Issue 37: the read sweep asks for its lines ahead (--read-prefetch bytes, 0: none); bin/stream checks the sum
+    of every element (7n) and exits 3 where it is wrong, here on a size whose blocks end in partial lines."""
+    path = tmp_path / "s.jsonl"
+    p = run([BIN / "stream", "--size", (1 << 16) + 13, "--trials", 2, "--threads", 2, "--read-prefetch", prefetch,
+             "--record", path])
+    assert p.returncode == 0, p.stderr
+    rec = json.loads(path.read_text())
+    assert rec["result"]["valid"] is True
+    assert rec["params"]["read_sweep"] == {"streams_per_thread": 4, "prefetch_bytes": prefetch}
+
+
+@pytest.mark.parametrize("args", [["--size", "0"], ["--trials", "0"], ["--threads", "x"], ["--bogus"],
+                                  ["--read-prefetch", "-1"]])
 def test_stream_bad_arguments_exit_2_with_one_line(args):
     p = run([BIN / "stream", *args])
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
