@@ -180,6 +180,34 @@ def test_bench_sparse_table_sets_each_storage_against_its_bytes(tmp_path, scene1
     assert any("runs float16" in l for l in table.splitlines()), table
 
 
+def test_bench_sparse_targets_judge_every_sparse_storage_on_room3(tmp_path, scene1):
+    """Issue 37: on room3, every sparse storage's step against its bytes at the read sweep next to it (<= 1.3x), the
+    verdict the ratio's. Real records of scene1, named room3 (the targets are room3's)."""
+    ff, _ = scene1
+    env = dict(os.environ, RESULTS=str(tmp_path / "results"), MACHINE="bench-test", ANALYSIS_ALL_RECORDS="1")
+    res = tmp_path / "results" / "bench-test"
+    for storage, values in (("dense", "float32"), ("csr", "float32"), ("runs", "float16")):
+        p = run([BIN / "stream", "--size", 1 << 16, "--trials", 2, "--record", res / "bench-stream/quick.jsonl"])
+        assert p.returncode == 0, p.stderr
+        p = run([BIN / "radiosity", "solve", SCENES / "scene1.xml", "--ff", ff, "--steps", "8", "--storage", storage,
+                 "--ff-precision", values, "--no-verify", "--quiet", "--record", res / "bench-sparse/quick.jsonl"])
+        assert p.returncode == 0, p.stderr
+    path = res / "bench-sparse/quick.jsonl"
+    recs = [json.loads(l) for l in path.read_text().splitlines()]
+    for r in recs:
+        r["params"]["scene"] = "/somewhere/room3.xml"
+    path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    p = subprocess.run([sys.executable, "-m", "analysis.bench", "quick"], cwd=ROOT, env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    table = (res / "tables" / "bench_quick.md").read_text()
+    for storage in ("csr float32", "runs float16"):
+        line = next(l for l in table.splitlines() if l.lstrip("- ").startswith(f"{storage} room3: ") and "read sweep" in l)
+        over = float(line.split(f"{storage} room3: ")[1].split("x")[0])
+        assert "target <= 1.3x" in line and line.endswith("NOT met" if over > 1.3 else "met"), line
+    assert not any(l.lstrip("- ").startswith("dense float32 room3: ") for l in table.splitlines()), table
+
+
 def test_bench_refuses_an_unknown_case_list_before_running_anything(tmp_path):
     """make bench BENCH=...: a list that does not exist is refused with exit 2 before any case or measurement."""
     env = {**os.environ, "BENCH": "bench-sparse bench-nonesuch", "RESULTS": str(tmp_path), "RRV_SCENES": str(tmp_path)}
