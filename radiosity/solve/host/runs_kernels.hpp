@@ -102,8 +102,10 @@ struct PlainRunSums {
 // AVX-512: a run of up to 16 values (every run the storage builds: kRunMaxLength) in ONE block under a mask (_bzhi:
 // the run's lanes), so there is no branch on a run's length, and no lane past the run is loaded or added; a longer
 // run (a file written with longer runs) takes full blocks first. Runs alternate between two sets of three
-// accumulators (B), so that consecutive runs' multiply-adds do not wait for each other (four sets, taken in turn,
-// measured no faster on room3: loaded machine, development only).
+// accumulators (B), so that consecutive runs' multiply-adds do not wait for each other. Tried for issue 37 and not
+// kept (room3 float16, loaded machine, development only): four sets taken in turn, no faster; runs capped at 8 values
+// in one 256-bit block each (a Zen 4 core splits a 512-bit operation in two halves), 8% slower, the more runs costing
+// more than the narrower blocks saved.
 template <class Val, int C>
 struct Avx512RunSums {
   __m512 s[2][3] = {{_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps()},
