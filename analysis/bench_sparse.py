@@ -10,8 +10,8 @@ from analysis.records import load
 # compressed storage (compressed or runs) at least 4x faster per Jacobi step than dense float32 on room3, in the same
 # run.
 CSR_SLACK, COMPRESSED_VS_DENSE = 1.25, 4.0
-# Issue 37's: every sparse storage's room3 step within 1.3x of its matrix bytes at the read sweep next to it (the
-# sweep that asks for its lines ahead, as the products do: bin/stream --read-prefetch).
+# Issue 37's: every sparse storage's room3 step within 1.3x of its matrix bytes at the read sweep next to it
+# (bin/stream's read-only sweep, measured before and after the case).
 SPARSE_SLACK = 1.3
 
 

@@ -33,7 +33,7 @@ namespace {
 struct Args : hpcgi::record::Options {
   long size = 1L << 25;  // elements per array: 256 MiB of doubles, 8 times a 32 MiB last-level cache
   int trials = 20;
-  long read_prefetch = 4096;  // bytes ahead the read sweep asks for each line (0: none)
+  long read_prefetch = 0;  // bytes ahead the read sweep asks for each line (0: none)
   int threads = 0;
   std::string device = "cpu";
 };
@@ -43,12 +43,11 @@ struct Stats {
 };
 
 // The read sweep of the calling thread: its block of a (the split of schedule(static) that first touched it), in
-// kStreams parts read side by side, each line asked for --read-prefetch bytes ahead. One stream per core leaves bandwidth
-// unused, as a core keeps too few misses in flight (on this project's 2-core EPYC VM four streams per core read about
-// 1.8 times as fast as one); and the hardware's prefetch alone kept the sweep below what the dense Jacobi product,
-// which prefetches its rows (linalg.hpp, kPrefetchBytes), streams (issue 37: dense F at 1.28 times the sweep), so the
-// sweep asks for its lines ahead as the kernels do (--read-prefetch bytes; 0: the hardware's prefetch alone, the sweep
-// before issue 37). triad's three arrays are three streams already.
+// kStreams parts read side by side, each line asked for --read-prefetch bytes ahead (default 0: the hardware's
+// prefetch alone). Both were tried for issue 37, whose dense Jacobi product out-read the one-stream sweep by 1.28x on
+// another day: on the 2-core EPYC VM, quiet, five alternating runs each (bin/stream --threads 2 --trials 10), the
+// one-stream sweep read 28.1-40.7 GB/s best, four streams 27.8-35.6, four streams with 4096 bytes ahead 25.7-33.3:
+// no gain, so the default asks for nothing ahead. triad's three arrays are three streams already.
 constexpr int kStreams = 4;
 constexpr long kLine = 64 / sizeof(double);  // doubles a cache line
 typedef double Line __attribute__((vector_size(64)));  // a line's 8 doubles (AVX-512: one register; AVX2: two)
