@@ -6,7 +6,8 @@ share of timed groups whose 95% intervals of the median overlap (issue 31 asks f
 
 A group is one case (its HPCGI_CASE) of a timed experiment, its runs the answers (exit status 0) that were not
 flagged as disturbed; its interval is the protocol's (common/timing_protocol.py). Prints one line per group that
-does not overlap and the share that does; exit 0 when the share is at least 90%, 1 when not, 2 on bad arguments."""
+does not overlap, each folder's summary (how its groups ended, from its state files) and the share that overlaps;
+exit 0 when the share is at least 90%, 1 when not, 2 on bad arguments."""
 import json
 import sys
 from pathlib import Path
@@ -36,6 +37,24 @@ def groups(folder, preset):
     return out
 
 
+def summary(folder, preset):
+    """How the folder's timed groups ended, from its state files: groups that met the interval target and groups
+    that stopped at the cap, timed runs and those flagged as disturbed, and the hours they ran in (UTC)."""
+    s = {"met": 0, "capped": 0, "timed_runs": 0, "disturbed": 0, "first_utc": None, "last_utc": None}
+    for exp in TIMED:
+        for line in tp.read_lines(Path(folder) / exp / f"{preset}.state.jsonl"):
+            if "stop" in line:
+                s["met" if line["stop"] == "interval" else "capped"] += 1
+            elif "repeat" in line:
+                s["timed_runs"] += 1
+                s["disturbed"] += bool(line.get("disturbed"))
+                utc = line.get("utc")
+                if utc:
+                    s["first_utc"] = min(s["first_utc"] or utc, utc)
+                    s["last_utc"] = max(s["last_utc"] or utc, utc)
+    return s
+
+
 def compare(a, b):
     """(groups in both, [(key, median_a, ci_a, median_b, ci_b) of those whose intervals do not overlap])."""
     both = sorted(k for k in a.keys() & b.keys() if len(a[k]) >= 3 and len(b[k]) >= 3)
@@ -56,6 +75,8 @@ def main(argv):
     if not both:
         print("reproducibility: no timed group with 3 runs or more in both folders", file=sys.stderr)
         return 2
+    for folder in argv[:2]:
+        print(json.dumps({"folder": folder, **summary(folder, preset)}))
     for (exp, case), ma, ca, mb, cb in apart:
         print(f"apart: {case}: {ma:.4g} [{ca[0]:.4g}, {ca[1]:.4g}] against {mb:.4g} [{cb[0]:.4g}, {cb[1]:.4g}] s")
     share = 1 - len(apart) / len(both)
