@@ -16,7 +16,7 @@ def median_of(df, col):
 def ci_of(df, col, scale=1.0):
     """The bootstrap 95% interval of the median of df[col] (times scale), as "[lo, hi]"; empty below 3 repeats."""
     v = df[col].dropna() * scale
-    return "[{:.3g}, {:.3g}]".format(*medianci_of(v)) if len(v) >= 3 else ""
+    return "[{:.3g}, {:.3g}]".format(*median_ci(v)) if len(v) >= 3 else ""
 
 
 def limit_next_to(stream, recs, col="perf.triad_GBps"):

@@ -39,8 +39,10 @@ def groups(folder, preset):
 
 def summary(folder, preset):
     """How the folder's timed groups ended, from its state files: groups that met the interval target and groups
-    that stopped at the cap, timed runs and those flagged as disturbed, and the hours they ran in (UTC)."""
+    that stopped at the cap, timed runs and those flagged as disturbed, the hours they ran in (UTC), and the median of
+    the bandwidth probes before the runs (GB/s: on a shared VM the host's bandwidth moves from hour to hour)."""
     s = {"met": 0, "capped": 0, "timed_runs": 0, "disturbed": 0, "first_utc": None, "last_utc": None}
+    probes = []
     for exp in TIMED:
         for line in tp.read_lines(Path(folder) / exp / f"{preset}.state.jsonl"):
             if "stop" in line:
@@ -48,10 +50,13 @@ def summary(folder, preset):
             elif "repeat" in line:
                 s["timed_runs"] += 1
                 s["disturbed"] += bool(line.get("disturbed"))
+                if isinstance(line.get("probe_before_gbs"), (int, float)):
+                    probes.append(line["probe_before_gbs"])
                 utc = line.get("utc")
                 if utc:
                     s["first_utc"] = min(s["first_utc"] or utc, utc)
                     s["last_utc"] = max(s["last_utc"] or utc, utc)
+    s["probe_median_gbs"] = round(tp.median(probes), 2) if probes else None
     return s
 
 

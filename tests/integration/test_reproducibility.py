@@ -16,7 +16,7 @@ def folder(path, groups, disturbed=()):
             recs.append({"times_s": {"setup": 0.0, "solve": t}, "result": {"exit_status": 0},
                          "provenance": {"env": {"HPCGI_CASE": case, "HPCGI_REPEAT": str(i)}}})
             states.append({"case": case, "repeat": i, "disturbed": (case, i) in disturbed,
-                           "utc": f"2026-12-05T10:00:{i:02d}Z"})
+                           "utc": f"2026-12-05T10:00:{i:02d}Z", "probe_before_gbs": 40.0 + i})
         states.append({"case": case, "stop": "interval" if len(times) == 3 else "cap", "n": len(times)})
     (exp / "quick.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
     (exp / "quick.state.jsonl").write_text("".join(json.dumps(s) + "\n" for s in states))
@@ -34,7 +34,8 @@ def test_overlapping_groups_pass_and_the_summaries_are_printed(tmp_path):
     assert p.returncode == 0, p.stderr
     lines = [json.loads(l) for l in p.stdout.splitlines()]
     assert lines[0] == {"folder": str(a), "met": 1, "capped": 1, "timed_runs": 8, "disturbed": 0,
-                        "first_utc": "2026-12-05T10:00:00Z", "last_utc": "2026-12-05T10:00:04Z"}
+                        "first_utc": "2026-12-05T10:00:00Z", "last_utc": "2026-12-05T10:00:04Z",
+                        "probe_median_gbs": 41.5}
     assert lines[1]["met"] == 2 and lines[1]["timed_runs"] == 6
     assert lines[-1] == {"groups": 2, "overlapping": 2, "share": 1.0}
 
