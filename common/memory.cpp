@@ -96,7 +96,7 @@ void* huge_alloc(std::size_t bytes) {
 #ifdef MADV_HUGEPAGE
   static const bool huge = [] {
     const char* e = std::getenv("HPCGI_HUGE_PAGES");
-    return e && std::string(e) == "1";
+    return !(e && std::string(e) == "0");
   }();
   if (huge) madvise(a, len, MADV_HUGEPAGE);  // a kernel without THP answers EINVAL: 4 KiB pages, as without it
 #endif

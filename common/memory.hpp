@@ -23,11 +23,13 @@ std::string format_bytes(double bytes);
 
 // Memory for a large array: one anonymous mapping (mmap), 2 MiB-aligned, given back by munmap. Its pages are zero
 // and not yet touched: the caller's first write (a first-touch loop in the kernels' schedule) faults them in on the
-// thread that will use them. With HPCGI_HUGE_PAGES=1 in the environment it is asked for transparent huge pages
-// (madvise MADV_HUGEPAGE: 512 times fewer page faults; quietly 4 KiB pages where the kernel has none). Not by
-// default: on this project's VM (a Firecracker guest, THP "madvise", loaded machine) the huge pages were faulted in
-// without a compaction stall and still made the setup of N = 6000 (MG-PCG) 5.7-12.7 s against 1.9 s with 4 KiB
-// pages. Throws std::bad_alloc when the mapping fails (require_host_memory refuses before, with a clear line).
+// thread that will use them. It is asked for transparent huge pages (madvise MADV_HUGEPAGE: 512 times fewer page
+// faults; quietly 4 KiB pages where the kernel has none, or with HPCGI_HUGE_PAGES=0 in the environment). Measured
+// on a quiet 2-core Intel Xeon VM (THP "madvise"), three alternating runs each: the setup of --method fmg at
+// N = 8192 took 0.14-0.20 s with them against 0.30-0.32 s without, its solve 1.10-1.17 s against 1.14-1.18 s; the
+// setup of --precond mg at N = 6000 0.27-0.29 s against 0.45-0.48 s, its solve 4% slower. (On the AMD EPYC VM
+// of the reference, loaded, they once made that setup slower: HPCGI_HUGE_PAGES=0 is the way back.)
+// Throws std::bad_alloc when the mapping fails (require_host_memory refuses before, with a clear line).
 void* huge_alloc(std::size_t bytes);
 void huge_free(void* p, std::size_t bytes) noexcept;
 

@@ -187,8 +187,8 @@ CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   return res;
 }
 
-// --method fmg: the full-multigrid F-cycle (mg.hpp fmg) as the first iteration, then V-cycles, each followed by
-// x += z, r -= A z (correct()), until the same stopping test as CG's, ‖r‖/‖r₀‖ <= tol with the recursive r. An
+// --method fmg: the full-multigrid F-cycle (mg.hpp fmg) as the first iteration, then solver V-cycles, until the same
+// stopping test as CG's, ‖r‖/‖r₀‖ <= tol, with r = b - A x of the new x (Preconditioned::solve_cycle). An
 // iteration is one fine-grid V-cycle (the F-cycle runs one on the fine grid, and about 1/3 of one below it).
 template <class T>
 CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, const CgProgress& progress = nullptr) {
@@ -199,8 +199,7 @@ CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
   t.reset();
   res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
   for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
-    m.solve_cycle(it == 1);
-    const double rr = m.correct();
+    const double rr = m.solve_cycle(it == 1);
     res.iterations = it;
     if (!detail::rr_ok(res, rr, it) || detail::reached(res, rr, rr0, it, tol, progress)) break;
   }

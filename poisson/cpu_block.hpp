@@ -31,25 +31,35 @@ template <class T>
 class CpuBlock {
  public:
   // Rows [y0, y0 + ny) of the N×N grid, N = n: the one-sweep variant needs y0 to tell the ghost rows outside the
-  // grid (always zero) from those that hold a neighbour's rows. Without with_p (--method fmg, which has no search
-  // direction) p is neither allocated nor touched, and calc_w, calc_ur, calc_p, r_Ar, sweep must not be called.
-  CpuBlock(long n, long y0, long ny, bool with_p = true)
-      : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), size_(checked_size(n, ny, with_p)),
+  // grid (always zero) from those that hold a neighbour's rows. With fmg (--method fmg, which works on x and b
+  // alone) p and w are neither allocated nor touched, r is allocated but only the rows the multigrid level kernels
+  // use are ever touched (mg_cpu.hpp: a few residual rows per thread; an untouched page reads as zero and costs
+  // nothing), ‖b‖² is summed in the pass that makes b, and calc_w, calc_ur, calc_p, r_Ar, sweep must not be called.
+  CpuBlock(long n, long y0, long ny, bool fmg = false)
+      : g_{n}, tab_(g_), n_(n), y0_(y0), ny_(ny), s_(n + 2), fmg_(fmg), size_(checked_size(n, ny, fmg)),
         x_(hpcgi::huge_array<T>(size_)), r_(hpcgi::huge_array<T>(size_)),
-        p_(with_p ? hpcgi::huge_array<T>(size_) : nullptr), w_(hpcgi::huge_array<T>(size_)),
+        p_(fmg ? nullptr : hpcgi::huge_array<T>(size_)), w_(fmg ? nullptr : hpcgi::huge_array<T>(size_)),
         b_(hpcgi::huge_array<T>(size_)) {
     // First touch of the interior rows in the loop schedule of the kernels; ghost rows and columns are zero.
     auto touch = [this](long jl) {
+      double bb = 0;
+      const bool inside = jl >= 0 && jl < ny_;
       for (long c = 0; c < s_; ++c) {
         const long k = (jl + kGhost) * s_ + c;
-        x_[k] = r_[k] = w_[k] = 0;
-        if (p_) p_[k] = 0;
+        x_[k] = 0;
+        if (!fmg_ || !inside) r_[k] = 0;
+        if (p_) p_[k] = w_[k] = 0;
         const long i = c - 1, j = y0_ + jl;
-        b_[k] = (jl >= 0 && jl < ny_ && i >= 0 && i < n_) ? static_cast<T>(tab_.b(i, j)) : T(0);
+        const T b = (inside && i >= 0 && i < n_) ? static_cast<T>(tab_.b(i, j)) : T(0);
+        b_[k] = b;
+        bb += static_cast<double>(b) * b;
       }
+      return bb;
     };
-#pragma omp parallel for schedule(static)
-    for (long jl = 0; jl < ny_; ++jl) touch(jl);
+    double bb = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bb)
+    for (long jl = 0; jl < ny_; ++jl) bb += touch(jl);
+    bb_ = bb;
     for (long g = 1; g <= kGhost; ++g) {
       touch(-g);
       touch(ny_ - 1 + g);
@@ -66,8 +76,12 @@ class CpuBlock {
   T* p() { return p_.get(); }
   T* r() { return r_.get(); }
   T* w() { return w_.get(); }
+  T* b() { return b_.get(); }
 
+  // x = 0, r = p = b; returns the local ‖b‖². With fmg only the latter: x is zero from the first touch, and the
+  // F-cycle writes x before it reads it.
   double init() {
+    if (fmg_) return bb_;
     double rr = 0;
 #pragma omp parallel for schedule(static) reduction(+ : rr)
     for (long jl = 0; jl < ny_; ++jl) {
@@ -78,7 +92,7 @@ class CpuBlock {
         r[c] = b[c];
         rr += static_cast<double>(b[c]) * b[c];
       }
-      if (p_) std::copy(b + 1, b + 1 + n_, row(p_.get(), jl) + 1);  // p = b (the row of b is in cache)
+      std::copy(b + 1, b + 1 + n_, row(p_.get(), jl) + 1);  // p = b (the row of b is in cache)
     }
     return rr;
   }
@@ -331,18 +345,21 @@ class CpuBlock {
     rar += s_rar;
   }
 
-  // (ny + 4)(n + 2) values per vector; refuses a block whose 5 (or 4, without p) vectors will not fit in memory.
-  static long checked_size(long n, long ny, bool with_p) {
+  // (ny + 4)(n + 2) values per vector; refuses a block whose 5 vectors (3 with fmg) will not fit in memory.
+  static long checked_size(long n, long ny, bool fmg) {
     const long size = (ny + 2 * kGhost) * (n + 2);
     hpcgi::require_host_memory("N = " + std::to_string(n) + " (" + std::to_string(ny) + " rows here)",
-                               (with_p ? 5.0 : 4.0) * sizeof(T) * static_cast<double>(size));
+                               (fmg ? 3.0 : 5.0) * sizeof(T) * static_cast<double>(size));
     return size;
   }
 
   Grid g_;
   GridTable tab_;
-  long n_, y0_, ny_, s_, size_;
-  hpcgi::HugeArray<T> x_, r_, p_, w_, b_;  // common/memory.hpp; p_ null without with_p
+  long n_, y0_, ny_, s_;
+  bool fmg_;
+  long size_;
+  double bb_ = 0;  // local ‖b‖², summed in the first touch
+  hpcgi::HugeArray<T> x_, r_, p_, w_, b_;  // common/memory.hpp; p_ and w_ null with fmg
   std::vector<Scratch> scratch_;
 };
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -15,18 +16,25 @@
 
 namespace poisson {
 
-// The fine-grid part of preconditioned CG for a CpuBlock: z in the block's layout and the hierarchy. The dots
-// are local to the block (the mpi backend reduces them).
+// The fine-grid part of preconditioned CG for a CpuBlock: z in the block's layout and the hierarchy, whose level 0
+// is z (x), the CG residual (b) and w (its residual). With fmg (--method fmg) there is no z: level 0 is the block's
+// own x, b and r, and the cycles improve x in place. The dots are local to the block (the mpi backend reduces them).
 template <class T>
 class CpuPcg {
  public:
-  CpuPcg(CpuBlock<T>& blk, const std::vector<LevelRows>& rows, MgComm<T>* comm)
-      : blk_(blk), size_(checked_size(blk, rows)), z_(hpcgi::huge_array<T>(size_)) {
+  CpuPcg(CpuBlock<T>& blk, const std::vector<LevelRows>& rows, MgComm<T>* comm, bool fmg)
+      : blk_(blk), size_(checked_size(blk, rows, fmg)), z_(fmg ? nullptr : hpcgi::huge_array<T>(size_)) {
+    if (fmg) {
+      mg_ = std::make_unique<CpuMg<T>>(blk.row(blk.x(), -1), blk.row(blk.b(), -1), blk.row(blk.r(), -1), rows, comm,
+                                       true);
+      return;
+    }
     const long s = blk.stride();
 #pragma omp parallel for schedule(static)
     for (long jl = -CpuBlock<T>::kGhost; jl < blk.rows() + CpuBlock<T>::kGhost; ++jl)
       std::fill_n(blk.row(z_.get(), jl), s, T(0));
-    mg_ = std::make_unique<CpuMg<T>>(blk, blk.row(z_.get(), -1), rows, comm);
+    mg_ = std::make_unique<CpuMg<T>>(blk.row(z_.get(), -1), blk.row(blk.r(), -1), blk.row(blk.w(), -1), rows, comm,
+                                     false);
   }
 
   // z = M⁻¹ r; returns the local r·z (made by the V-cycle's last pass, prolong_postsmooth(0)).
@@ -47,6 +55,7 @@ class CpuPcg {
 
   // r = x on the block's rows (global row y0 + jl), z = M⁻¹ r; returns the local y·z.
   double apply_dot(const Preconditioned::GridFn& x, const Preconditioned::GridFn& y, long y0) {
+    if (!z_) throw std::logic_error("apply_dot needs the preconditioner's z (--precond mg), not --method fmg");
     const long n = blk_.stride() - 2;
     for (long jl = 0; jl < blk_.rows(); ++jl)
       for (long c = 1; c <= n; ++c) blk_.row(blk_.r(), jl)[c] = static_cast<T>(x(c - 1, y0 + jl));
@@ -125,33 +134,12 @@ class CpuPcg {
     return rr;
   }
 
-  // --method fmg: z ≈ A⁻¹ r by the full-multigrid F-cycle (full; mg.hpp fmg, r = b after init) or by one
-  // vcycle_solve from z = 0.
-  void solve_cycle(bool full) { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
-
-  // x += z, r -= A z after the F-cycle or a V-cycle (halo() fills z's ghost rows on a distributed block); returns
-  // the local r·r. Reads x, z, r, writes x, r: 5 vectors of N².
-  template <class Halo>
-  double correct(Halo&& halo) {
-    halo(z_.get());
-    const long n = blk_.stride() - 2;
-    double rr = 0;
-#pragma omp parallel for schedule(static) reduction(+ : rr)
-    for (long jl = 0; jl < blk_.rows(); ++jl) {
-      T* __restrict x = blk_.row(blk_.x(), jl);
-      T* __restrict r = blk_.row(blk_.r(), jl);
-      const T *zc = blk_.row(z_.get(), jl), *zu = blk_.row(z_.get(), jl - 1), *zd = blk_.row(z_.get(), jl + 1);
-      double sum = 0;
-#pragma omp simd reduction(+ : sum)
-      for (long c = 1; c <= n; ++c) {
-        x[c] += zc[c];
-        const T rn = r[c] - (4 * zc[c] - zc[c - 1] - zc[c + 1] - zu[c] - zd[c]);
-        r[c] = rn;
-        sum += static_cast<double>(rn) * rn;
-      }
-      rr += sum;
-    }
-    return rr;
+  // --method fmg: x improved in place by the full-multigrid F-cycle (full; mg.hpp fmg, from x = 0) or by one
+  // solver V-cycle (mg.hpp vcycle_solve); returns the local ‖b - A x‖² of the new x (summed in the cycle's last
+  // pass, mg_cpu.hpp; with one level, N = 1, from x directly).
+  double solve_cycle(bool full) {
+    full ? fmg(*mg_) : vcycle_solve(*mg_, 0, false);
+    return mg_->levels() > 1 ? mg_->dot0() : blk_.true_residual2();
   }
 
   void calc_p_z(double beta) {
@@ -167,11 +155,11 @@ class CpuPcg {
   }
 
  private:
-  static long checked_size(CpuBlock<T>& blk, const std::vector<LevelRows>& rows) {
+  static long checked_size(CpuBlock<T>& blk, const std::vector<LevelRows>& rows, bool fmg) {
     const long size = (blk.rows() + 2 * CpuBlock<T>::kGhost) * blk.stride();
-    hpcgi::require_host_memory("multigrid at N = " + std::to_string(rows[0].n) + " (z and " +
+    hpcgi::require_host_memory("multigrid at N = " + std::to_string(rows[0].n) + " (" + (fmg ? "" : "z and ") +
                                    std::to_string(rows.size() - 1) + " coarse levels)",
-                               sizeof(T) * (size + CpuMg<T>::coarse_values(rows)));
+                               sizeof(T) * ((fmg ? 0 : size) + CpuMg<T>::coarse_values(rows)));
     return size;
   }
   CpuBlock<T>& blk_;

@@ -183,9 +183,13 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
     CUDA_CHECK_LAUNCH();
     return fetch(1)[0];
   }
-  void solve_cycle(bool full) override { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
+  // The cycles on the correction z of the residual equation A z = r from z = 0 (kernels.hpp), then correct().
+  double solve_cycle(bool full) override {
+    full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true);
+    return correct();
+  }
   // x += z, r -= A z, r·r: the classic kernels with p = z, w = A z (w is level 0's residual, free here), α = 1.
-  double correct() override {
+  double correct() {
     zero();
     calc_w_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, z_->get(), B::w_.get(), sum_.get());
     CUDA_CHECK_LAUNCH();

@@ -76,11 +76,12 @@ class Preconditioned {
   virtual bool fused_updates() const { return false; }
   virtual double calc_p_pw(double /*beta*/) { return 0; }
   virtual double calc_ur_p(double /*alpha*/) { return 0; }
-  // --method fmg (cg.hpp run_fmg) on the same hierarchy: solve_cycle(true) makes z ≈ A⁻¹ r by the full-multigrid
-  // F-cycle (mg.hpp fmg; r = b after init), solve_cycle(false) by one solver V-cycle from z = 0 (mg.hpp
-  // vcycle_solve); correct() then x += z, r -= A z and returns r·r.
-  virtual void solve_cycle(bool full) = 0;
-  virtual double correct() = 0;
+  // --method fmg (cg.hpp run_fmg) on the same hierarchy: solve_cycle(true) improves x by the full-multigrid F-cycle
+  // (mg.hpp fmg, from x = 0 after init), solve_cycle(false) by one solver V-cycle (mg.hpp vcycle_solve); each
+  // returns r·r of the new x (local to the rank on a distributed block: the caller's backend reduces it). A
+  // backend may run the cycles on x itself (openmp, mpi) or on the correction z of the residual equation from z = 0
+  // followed by x += z, r -= A z (serial, cuda): the same iterates up to rounding.
+  virtual double solve_cycle(bool full) = 0;
   // Grid sizes of the hierarchy, finest first (for the record).
   virtual std::vector<long> mg_sizes() const = 0;
   // y·(M⁻¹x) for whole-grid vectors given as functions of the point (i, j): r = x (this rank's rows), z = M⁻¹ r,

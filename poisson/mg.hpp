@@ -105,6 +105,16 @@ class MgLevels {
     prolong_add(l);
     smooth_pair(l, 1);
   }
+  // The solver cycle's halves (vcycle_solve). Before the coarse correction, from the current x_l: red, black,
+  // b_{l+1} = Pᵀ (b_l - A x_l) (from x_l = 0 it is presmooth_restrict). After it: x_l += P x_{l+1}, red, black.
+  virtual void smooth_restrict(int l) {
+    smooth_pair(l, 0);
+    restrict_residual(l);
+  }
+  virtual void prolong_smooth(int l) {
+    prolong_add(l);
+    smooth_pair(l, 0);
+  }
   // The full multigrid's own steps (fmg below); a backend may do each in one pass (mg_cpu.hpp).
   // b_{l+1} = Pᵀ b_l: the right-hand side restricted (x_l is overwritten).
   virtual void restrict_rhs(int l) {
@@ -133,31 +143,27 @@ inline void vcycle(MgLevels& k, int l = 0) {
 // The V(1,1)-cycle of a multigrid solver (--method fmg) on levels l .. levels()-1, from x_l = 0 (from_zero) or
 // from the current x_l: red, black, b_{l+1} = Pᵀ (b_l - A x_l), the same cycle from zero below, x_l += P x_{l+1},
 // then red, black again. The smoother and transfers of vcycle, but after the coarse correction red before black,
-// not Sᵀ: with vcycle's symmetric order (which CG needs) a cycle's last red and the next cycle's first red follow
-// one another on the fine grid, the second changing nothing, so it smooths one and a half sweeps per cycle, this
-// one two; as a stationary iteration the symmetric cycle reduced ‖r‖ by about 0.25 per cycle, this one by about
-// 0.075 (N = 255, 1023).
+// not Sᵀ, on every level: with vcycle's symmetric order (which CG needs) a cycle's last red and the next cycle's
+// first red follow one another on the fine grid, the second changing nothing, and a pre-smoothing that ends on
+// red leaves the residual zero at the coarse points (which are red) before full weighting. As a stationary
+// iteration the symmetric cycle reduced ‖r‖ by about 0.25 per cycle, this one by about 0.075 (N = 255, 1023);
+// black before red on both sides, or vcycle below this order, gave 0.14-0.2 (measured with serial, N = 255, 1023).
 inline void vcycle_solve(MgLevels& k, int l, bool from_zero) {
   if (l == k.levels() - 1) {  // n = 1: exact
     k.zero(l);
     k.smooth(l, 0);
     return;
   }
-  if (from_zero) {
-    k.presmooth_restrict(l);
-  } else {
-    k.smooth_pair(l, 0);
-    k.restrict_residual(l);
-  }
+  from_zero ? k.presmooth_restrict(l) : k.smooth_restrict(l);
   vcycle_solve(k, l + 1, true);
-  k.prolong_add(l);
-  k.smooth_pair(l, 0);
+  k.prolong_smooth(l);
 }
 
 // x_0 ≈ A⁻¹ b_0 by one full-multigrid F-cycle (--method fmg): b restricted down to the coarsest level, solved
-// there exactly, then on each finer level the coarser solution interpolated bilinearly (P) and one V-cycle from
-// it (vcycle_solve). The V-cycle's smoother and transfers throughout; b_0 is read only, every coarser b and every x
-// is overwritten. On level l the work is about 4/3 of a V-cycle on level l, in all about 4/3 of a fine V-cycle.
+// there exactly, then on each finer level the coarser solution interpolated bilinearly (P) and one solver V-cycle
+// from it (vcycle_solve). The V-cycle's smoother and transfers throughout; b_0 is read only, every coarser b and
+// every x is overwritten (x_0 is written before it is read). On level l the work is about 4/3 of a V-cycle on
+// level l, in all about 4/3 of a fine V-cycle.
 inline void fmg(MgLevels& k) {
   const int last = k.levels() - 1;
   for (int l = 0; l < last; ++l) k.restrict_rhs(l);
@@ -169,18 +175,21 @@ inline void fmg(MgLevels& k) {
   }
 }
 
-// The data-movement model of --method fmg with the level kernels of mg_cpu.hpp, in vectors of N². vcycle_solve
-// from zero on a level: presmooth_restrict (2.25), prolong_add (read and write x, read a quarter: 2.25),
-// smooth_pair (read x and b, write x: 3): 7.5; from the current x: smooth_pair 3 and restrict_residual (read x and
-// b, write r, read r, write a quarter: 4.25) in place of presmooth_restrict: 12.5. The F-cycle, on each level l but
-// the coarsest: restrict_rhs (read b, write a quarter: 1.25), interpolate (read a quarter, write x: 1.25), the
-// cycle from x (12.5) and the cycles from zero below it (7.5 on each coarser level). Each scaled by (n_l / N)².
-inline constexpr double kSolveCycleFromZero = 7.5, kSolveCycleFromX = 12.5, kFmgTransfers = 2.5;
+// The data-movement model of --method fmg with the level kernels of mg_cpu.hpp (x_0 the solution itself, updated in
+// place), in vectors of N². A cycle from zero on a level: presmooth_restrict (read b, write x, write a quarter:
+// 2.25) and prolong_smooth (read a quarter, read b and x, write x: 3.25): 5.5. A cycle from x: smooth_restrict
+// (read x and b, write x, write a quarter: 3.25) and prolong_smooth (3.25): 6.5; on level 0 the last pass also sums
+// ‖b - A x‖² (no extra memory). The F-cycle, on each level l but the coarsest: restrict_rhs (read b, write a
+// quarter: 1.25), interpolate (read a quarter, write x: 1.25), the cycle from x (6.5) and the cycles from zero
+// below it (5.5 on each coarser level). Each scaled by (n_l / N)².
+inline constexpr double kSolveCycleFromZero = 5.5, kSolveCycleFromX = 6.5, kFmgTransfers = 2.5;
 
-// Vectors of N² of one vcycle_solve from zero on the whole hierarchy.
+// Vectors of N² of one solver V-cycle from x (vcycle_solve on level 0) of the hierarchy.
 inline double mg_solve_vectors_per_cycle(long n) {
-  double v = 0;
-  for (long m : mg_level_sizes(n)) v += kSolveCycleFromZero * (static_cast<double>(m) / n) * (static_cast<double>(m) / n);
+  const std::vector<long> s = mg_level_sizes(n);
+  double v = s.size() > 1 ? kSolveCycleFromX : 0;
+  for (size_t l = 1; l < s.size(); ++l)
+    v += kSolveCycleFromZero * (static_cast<double>(s[l]) / n) * (static_cast<double>(s[l]) / n);
   return v;
 }
 

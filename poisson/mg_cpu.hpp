@@ -21,27 +21,27 @@ namespace poisson {
 template <class T>
 class CpuMg final : public MgLevels {
  public:
-  // rows[l] for every level of mg_level_sizes(blk's n); rows[0] is the CpuBlock's. comm may be null (one process,
-  // every level whole).
-  // The coarse levels' x, b, r (level 0 borrows the CpuBlock's) lie in one allocation, in huge pages where the
-  // kernel allows (common/memory.hpp), each level first touched by its own loop schedule.
-  CpuMg(CpuBlock<T>& blk, T* z_row_minus1, const std::vector<LevelRows>& rows, MgComm<T>* comm)
-      : comm_(comm), coarse_(hpcgi::huge_array<T>(static_cast<size_t>(coarse_values(rows)))) {
+  // rows[l] for every level of mg_level_sizes(n); level 0's x, b and residual r are the caller's (row -1 of each, in
+  // the CpuBlock's layout: z, the CG residual and w for the preconditioner; x, b and r of the block itself for
+  // --method fmg, where solver is true and the last pass of level 0 sums ‖b - A x‖² instead of b·x, dot0()). comm
+  // may be null (one process, every level whole). The coarse levels' x, b, r lie in one allocation, in huge pages
+  // where the kernel allows (common/memory.hpp), x and b of each level first touched by its own loop schedule; r is
+  // only touched where the fused kernels store residual rows (a few per thread), so it costs no setup.
+  CpuMg(T* x0, T* b0, T* r0, const std::vector<LevelRows>& rows, MgComm<T>* comm, bool solver)
+      : comm_(comm), solver_(solver), coarse_(hpcgi::huge_array<T>(static_cast<size_t>(coarse_values(rows)))) {
     const std::vector<double> edge = mg_edge_terms(rows[0].n);
     T* next = coarse_.get();
     for (size_t l = 0; l < rows.size(); ++l) {
       CpuLevel<T> lv{rows[l], rows[l].n + 2, static_cast<T>(edge[l]), nullptr, nullptr, nullptr};
       if (l == 0) {
-        lv.x = z_row_minus1;
-        lv.b = blk.row(blk.r(), -1);
-        lv.r = blk.row(blk.w(), -1);
+        lv.x = x0, lv.b = b0, lv.r = r0;
       } else {
         const long size = (rows[l].ny + 2) * lv.s;
         T* base = next;
         next += 3 * size;
 #pragma omp parallel for schedule(static) if (lv.threaded())
         for (long jl = -1; jl <= rows[l].ny; ++jl)
-          for (long k = 0; k < 3; ++k) std::fill_n(base + k * size + (jl + 1) * lv.s, lv.s, T(0));
+          for (long k = 0; k < 2; ++k) std::fill_n(base + k * size + (jl + 1) * lv.s, lv.s, T(0));
         lv.x = base, lv.b = base + size, lv.r = base + 2 * size;
       }
       lv_.push_back(std::move(lv));
@@ -198,25 +198,33 @@ class CpuMg final : public MgLevels {
 
   // x = 0, red, black; b_{l+1} = Pᵀ (b - A x). From x = 0 the red update is x = b / a: x is neither zeroed nor
   // read before it is written (a black point's neighbours are all red), and the residual never leaves the cache.
-  void presmooth_restrict(int l) override {
+  void presmooth_restrict(int l) override { smooth_restrict_pass(l, true); }
+  // From the current x: red, black; b_{l+1} = Pᵀ (b - A x) (the solver cycle of mg.hpp), in the same one pass.
+  void smooth_restrict(int l) override { smooth_restrict_pass(l, false); }
+
+ private:
+  void smooth_restrict_pass(int l, bool from_zero) {
     CpuLevel<T>& f = lv_[l];
     CpuLevel<T>& c = lv_[l + 1];
     const long ny = f.rows.ny, y0 = f.rows.y0, nc = c.rows.n;
     const bool dist = !f.rows.whole;
     const int nt = f.threaded() ? omp_get_max_threads() : 1;
     ensure_rings(nt);
+    // The first colour of a row: red (from zero: x = b / a).
+    auto first = [&](long y) { from_zero ? mg_rows::red_from_zero(f, y) : mg_rows::colour_row(f, y, 0); };
     // The coarse row centred on local fine row jc (global 2J + 1), from fine residual rows jc - 1, jc, jc + 1.
     auto coarse = [&](long jc, const T* r0, const T* r1, const T* r2) {
       mg_rows::restrict_row(r0, r1, r2, c.row(c.b, (y0 + jc - 1) / 2 - c.rows.y0), nc);
     };
     auto centre = [y0](long jc) { return ((y0 + jc) & 1) == 1; };
+    if (dist && !from_zero) comm_->halo(f, f.x);  // the neighbours' current edge rows, which red reads
 #pragma omp parallel num_threads(nt)
     {
       const auto [a, e] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
-      if (e > a) mg_rows::red_from_zero(f, a);
-      if (e - 1 > a) mg_rows::red_from_zero(f, e - 1);
+      if (e > a) first(a);
+      if (e - 1 > a) first(e - 1);
     }
-    if (dist) comm_->halo(f, f.x);  // red of the neighbours' edge rows (their black is not read)
+    if (dist) comm_->halo(f, f.x);  // the first colour of the neighbours' edge rows
 #pragma omp parallel num_threads(nt)
     {
       const int t = omp_get_thread_num();
@@ -224,7 +232,7 @@ class CpuMg final : public MgLevels {
       T* ring = rings_[t].data();
       const long s0 = lv_[0].s;
       for (long y = a; y <= e + 1; ++y) {
-        if (y < e && y != a && y != e - 1) mg_rows::red_from_zero(f, y);
+        if (y < e && y != a && y != e - 1) first(y);
         if (y - 1 >= a && y - 1 < e) mg_rows::colour_row(f, y - 1, 1);
         const long q = y - 2;  // its residual: rows q - 1 .. q + 1 are final
         if (q > a && q < e - 1) {
@@ -255,6 +263,7 @@ class CpuMg final : public MgLevels {
     if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
   }
 
+ public:
   // x += P x_{l+1}, black, red; on level 0 also the local r·z (b·x) of the result, for dot0(). Only the red points
   // are prolonged: the black update that follows does not read the old black value.
   void prolong_postsmooth(int l) override {
@@ -301,7 +310,59 @@ class CpuMg final : public MgLevels {
     if (l == 0) dot0_ = dot;
   }
 
-  // The local b·x of level 0 after the last prolong_postsmooth(0) (r·z of the V-cycle; levels() > 1).
+  // The solver cycle's second half (mg.hpp vcycle_solve): x += P x_{l+1} on every point, red, black, in one pass;
+  // on level 0 of the solver (--method fmg) also the local ‖b - A x‖² of the result, for dot0(). Each thread walks
+  // down its rows [a, e): at row step y the prolongation of row y + 1, the red of row y, the black of row y - 1 and
+  // the residual of row y - 2. A row's red reads the prolonged black points of the rows beside it, and must read
+  // them before their black update: so first every thread prolongs its first two and last two rows, then (after
+  // the halo, on a distributed level) makes the red of its first and last rows, then (after the halo) the pass,
+  // then (after the halo) the residuals of its first and last rows.
+  void prolong_smooth(int l) override {
+    CpuLevel<T>& f = lv_[l];
+    CpuLevel<T>& c = lv_[l + 1];
+    const long ny = f.rows.ny;
+    const bool dist = !f.rows.whole, residual = l == 0 && solver_;
+    const int nt = f.threaded() ? omp_get_max_threads() : 1;
+    auto early = [](long y, long a, long e) { return y == a || y == a + 1 || y == e - 2 || y == e - 1; };
+    if (!c.rows.whole) comm_->halo(c, c.x);
+#pragma omp parallel num_threads(nt)
+    {
+      const auto [a, e] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+      for (long y = a; y < e; ++y)
+        if (early(y, a, e)) mg_rows::prolong_row(f, c, y);
+    }
+    if (dist) comm_->halo(f, f.x);
+#pragma omp parallel num_threads(nt)
+    {
+      const auto [a, e] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+      if (e > a) mg_rows::colour_row(f, a, 0);
+      if (e - 1 > a) mg_rows::colour_row(f, e - 1, 0);
+    }
+    if (dist) comm_->halo(f, f.x);
+    double rr = 0;
+#pragma omp parallel num_threads(nt) reduction(+ : rr)
+    {
+      const auto [a, e] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+      for (long y = a; y <= e; ++y) {
+        if (y + 1 < e && !early(y + 1, a, e)) mg_rows::prolong_row(f, c, y + 1);
+        if (y > a && y < e - 1) mg_rows::colour_row(f, y, 0);
+        if (y - 1 >= a && y - 1 < e) mg_rows::colour_row(f, y - 1, 1);
+        if (residual && y - 2 >= a + 1 && y - 2 <= e - 2) rr += mg_rows::residual_norm_row(f, y - 2);
+      }
+    }
+    if (residual) {
+      if (dist) comm_->halo(f, f.x);
+#pragma omp parallel num_threads(nt) reduction(+ : rr)
+      {
+        const auto [a, e] = static_rows(ny, omp_get_thread_num(), omp_get_num_threads());
+        if (e > a) rr += mg_rows::residual_norm_row(f, a);
+        if (e - 1 > a) rr += mg_rows::residual_norm_row(f, e - 1);
+      }
+      dot0_ = rr;
+    }
+  }
+
+  // The local b·x (or, for the solver, ‖b - A x‖²) of level 0 after the last prolong_postsmooth(0) (levels() > 1).
   double dot0() const { return dot0_; }
 
  private:
@@ -312,6 +373,7 @@ class CpuMg final : public MgLevels {
 
   std::vector<CpuLevel<T>> lv_;
   MgComm<T>* comm_;
+  bool solver_;
   hpcgi::HugeArray<T> coarse_;
   std::vector<std::vector<T>> rings_;
   double dot0_ = 0;

@@ -83,6 +83,25 @@ inline void residual_row(const CpuLevel<T>& f, long jl, T* __restrict r) {
   r[0] = r[n + 1] = 0;
 }
 
+// ‖b - A x‖² on local row jl, summed in double (the residual of residual_row, not stored).
+template <class T>
+inline double residual_norm_row(const CpuLevel<T>& f, long jl) {
+  const long n = f.rows.n;
+  const T* __restrict x = f.row(f.x, jl);
+  const T* __restrict up = f.row(f.x, jl - 1);
+  const T* __restrict dn = f.row(f.x, jl + 1);
+  const T* __restrict b = f.row(f.b, jl);
+  const T d = 4 + (f.rows.y0 + jl == n - 1 ? f.e : T(0));
+  double s = 0;
+#pragma omp simd reduction(+ : s)
+  for (long k = 1; k < n; ++k) {
+    const double r = b[k] - (d * x[k] - x[k - 1] - x[k + 1] - up[k] - dn[k]);
+    s += r * r;
+  }
+  const double r = b[n] - ((d + f.e) * x[n] - x[n - 1] - x[n + 1] - up[n] - dn[n]);
+  return s + r * r;
+}
+
 // Coarse row bc = Pᵀ of fine residual rows r0, r1, r2 (padded coarse column C sits on padded fine column 2C).
 template <class T>
 inline void restrict_row(const T* __restrict r0, const T* __restrict r1, const T* __restrict r2,
@@ -116,6 +135,22 @@ inline void prolong_red(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
       const long C = k / 2;
       x[k] += T(0.5) * (ca[C] + cb[C]);
     }
+  }
+}
+
+// x += P x_c on every point of local fine row jl: fine padded column 2C sits on coarse padded column C, 2C + 1
+// halfway between C and C + 1 (the coarse ghost columns are zero).
+template <class T>
+inline void prolong_row(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
+  const long n = f.rows.n, j = f.rows.y0 + jl;
+  const long J = j / 2 - c.rows.y0;
+  const T* __restrict ca = c.row(c.x, (j & 1) ? J : J - 1);
+  const T* __restrict cb = c.row(c.x, J);
+  T* __restrict x = f.row(f.x, jl);
+  for (long C = 0; 2 * C <= n; ++C) {
+    const T t0 = T(0.5) * (ca[C] + cb[C]), t1 = T(0.5) * (ca[C + 1] + cb[C + 1]);
+    if (C > 0) x[2 * C] += t0;
+    if (2 * C + 1 <= n) x[2 * C + 1] += T(0.5) * (t0 + t1);
   }
 }
 

@@ -46,7 +46,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   explicit Mpi(const Config& cfg)
       : rank_(hpcgi::comm::rank()), size_(hpcgi::comm::size()), part_(split_rows(cfg.n, size_, rank_)), n_(cfg.n),
         blocking_(cfg.halo == Halo::blocking), onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg),
-        blk_(cfg.n, part_.y0, part_.ny, !fmg_) {
+        blk_(cfg.n, part_.y0, part_.ny, fmg_) {
     const int active = static_cast<int>(std::min<long>(size_, n_));  // ranks 0..active-1 hold rows
     up_ = (rank_ > 0 && rank_ < active) ? rank_ - 1 : MPI_PROC_NULL;
     down_ = (rank_ + 1 < active) ? rank_ + 1 : MPI_PROC_NULL;
@@ -56,8 +56,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
 
   // Preconditioned (the hierarchy of the comment at the top).
   double precondition() override { return sum(pcg_->precondition()); }
-  void solve_cycle(bool full) override { pcg_->solve_cycle(full); }
-  double correct() override { return sum(pcg_->correct([this](T* z) { exchange({z}, 1); })); }
+  double solve_cycle(bool full) override { return sum(pcg_->solve_cycle(full)); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
   bool fused_updates() const override { return true; }
   double calc_p_pw(double beta) override {
@@ -119,7 +118,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   }
   // As openmp, plus the halo rows.
   int vectors_per_iteration() const override {
-    return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(n_) + 0.5)
+    return fmg_ ? static_cast<int>(mg_solve_vectors_per_cycle(n_) + 0.5)
                 : pcg_ ? 8 + mg_fused_vectors_per_cycle(n_) : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   bool is_root() const override { return rank_ == 0; }
@@ -208,7 +207,7 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
                            : LevelRows{sizes[l], next[rank_].y0, next[rank_].ny, false});
       all = next;
     }
-    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, this);
+    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, this, fmg_);
   }
 
   int rank_, size_;

@@ -15,15 +15,14 @@ template <class T>
 class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
  public:
   explicit OpenMP(const Config& cfg)
-      : onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg), blk_(cfg.n, 0, cfg.n, !fmg_) {
+      : onesweep_(cfg.variant == Variant::onesweep), fmg_(cfg.method == Method::fmg), blk_(cfg.n, 0, cfg.n, fmg_) {
     if (!cfg.multigrid()) return;
     std::vector<LevelRows> rows;
     for (long m : mg_level_sizes(cfg.n)) rows.push_back({m, 0, m, true});
-    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, nullptr);
+    pcg_ = std::make_unique<CpuPcg<T>>(blk_, rows, nullptr, fmg_);
   }
   double precondition() override { return pcg_->precondition(); }
-  void solve_cycle(bool full) override { pcg_->solve_cycle(full); }
-  double correct() override { return pcg_->correct([](T*) {}); }
+  double solve_cycle(bool full) override { return pcg_->solve_cycle(full); }
   void calc_p_z(double beta) override { pcg_->calc_p_z(beta); }
   bool fused_updates() const override { return true; }
   double calc_p_pw(double beta) override { return pcg_->calc_p_pw(beta, [] {}); }
@@ -45,9 +44,9 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
   }
   // classic: [w = Ap, p·w] 2, [x, r, r·r] 6, [p] 3; onesweep: read r, p, x and write them; multigrid:
   // [p = z + βp, p·Ap] 3, [x, r, r·r] with Ap from p 5 and the fused V-cycle, r·z in its last pass (mg.hpp);
-  // fmg after its F-cycle: the solver's V-cycle from zero (mg.hpp) and [x += z, r -= Az, r·r] 5.
+  // fmg after its F-cycle: the solver's V-cycle on x itself, which also sums ‖b - Ax‖² (mg.hpp).
   int vectors_per_iteration() const override {
-    return fmg_ ? static_cast<int>(5 + mg_solve_vectors_per_cycle(blk_.rows()) + 0.5)
+    return fmg_ ? static_cast<int>(mg_solve_vectors_per_cycle(blk_.rows()) + 0.5)
                 : pcg_ ? 8 + mg_fused_vectors_per_cycle(blk_.rows()) : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   std::map<std::string, std::string> info() const override {

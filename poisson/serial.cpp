@@ -121,8 +121,14 @@ class Serial final : public Kernels<T>, public Preconditioned {
     for (long k = 0; k < n_ * n_; ++k) rz += static_cast<double>(r_[k]) * z_[k];
     return rz;
   }
-  void solve_cycle(bool full) override { full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true); }
-  double correct() override {
+  // The cycles on the correction z of the residual equation A z = r from z = 0 (kernels.hpp), then x += z, r -= Az.
+  double solve_cycle(bool full) override {
+    full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true);
+    return correct();
+  }
+
+ private:
+  double correct() {
     apply(z_, w_);
     double rr = 0;
     for (long k = 0; k < n_ * n_; ++k) {
@@ -132,6 +138,8 @@ class Serial final : public Kernels<T>, public Preconditioned {
     }
     return rr;
   }
+
+ public:
   void calc_p_z(double beta) override {
     const T b = static_cast<T>(beta);
     for (long k = 0; k < n_ * n_; ++k) p_[k] = z_[k] + b * p_[k];

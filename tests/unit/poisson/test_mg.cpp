@@ -149,15 +149,20 @@ TEST(Mg, PreconditionerABackendLacksIsAUsageError) {
 
 }  // namespace
 
-// --method fmg's data-movement model (mg.hpp): 15 vectors of N² on the finest level (restriction of b and
-// interpolation 2.5, the V-cycle from x 12.5), each level below its own share plus 7.5 for every cycle from zero
-// that passes through it, scaled by its size.
+// --method fmg's data-movement model (mg.hpp): 9 vectors of N² on the finest level (restriction of b and
+// interpolation 2.5, the one-pass halves of the V-cycle from x 6.5), each level below its own share plus 5.5 for
+// every cycle from zero that passes through it, scaled by its size; a solver V-cycle is 6.5 on the finest level
+// and 5.5 on each coarser one.
 TEST(Mg, FmgBytesModelByLevel) {
   const std::vector<double> v = poisson::fmg_vectors_per_level(64);
   ASSERT_EQ(v.size(), 7u);
-  EXPECT_DOUBLE_EQ(v[0], 15.0);
-  EXPECT_DOUBLE_EQ(v[1], (15.0 + 7.5) * (32.0 / 64) * (32.0 / 64));
+  EXPECT_DOUBLE_EQ(v[0], 9.0);
+  EXPECT_DOUBLE_EQ(v[1], (9.0 + 5.5) * (32.0 / 64) * (32.0 / 64));
+  EXPECT_DOUBLE_EQ(v[6], 6 * 5.5 * (1.0 / 64) * (1.0 / 64));  // the coarsest: only the cycles from zero
   double total = 0;
   for (double x : v) total += x;
-  EXPECT_LT(total, 15.0 * 4 / 3 + 7.5);  // about 4/3 of a fine-grid cycle from x and one from zero
+  EXPECT_LT(total, 9.0 * 4 / 3 + 5.5);  // about 4/3 of the finest level's share and one cycle from zero
+  double cycle = 6.5;
+  for (long m = 32; m >= 1; m /= 2) cycle += 5.5 * (m / 64.0) * (m / 64.0);
+  EXPECT_DOUBLE_EQ(poisson::mg_solve_vectors_per_cycle(64), cycle);
 }
