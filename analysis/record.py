@@ -176,8 +176,25 @@ def add_options(parser):
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors (and the record with --json)")
 
 
+def process_seconds():
+    """Seconds since this process began (its start time in /proc/self/stat, in clock ticks, against CLOCK_BOOTTIME),
+    the interpreter's start and imports included, as common/record.hpp's process_seconds; None where the system does
+    not say."""
+    try:
+        with open("/proc/self/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()  # the command name, in parentheses, may hold spaces
+        up = time.clock_gettime(time.CLOCK_BOOTTIME) - int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22
+    except (OSError, IndexError, ValueError, AttributeError):
+        return None
+    return up if 0 <= up < 1e7 else None
+
+
 def emit(rec, args):
-    """The end of every run that makes a record: printed with --json, appended to --record's file."""
+    """The end of every run that makes a record: printed with --json, appended to --record's file, with
+    times_s.process (process_seconds) at that moment."""
+    up = process_seconds()
+    if up is not None:
+        rec.setdefault("times_s", {})["process"] = up
     if args.json:
         print(dumps(rec), flush=True)
     if args.record:

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -121,9 +123,28 @@ nlohmann::json make(const std::string& app) {
   return r;
 }
 
+double process_seconds() {
+  std::ifstream in("/proc/self/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t close = stat.rfind(')');  // the command name, in parentheses, may hold spaces
+  timespec now{};
+  if (close == std::string::npos || clock_gettime(CLOCK_BOOTTIME, &now) != 0) return -1;
+  std::istringstream fields(stat.substr(close + 1));
+  std::string field;
+  for (int k = 3; k <= 22 && fields >> field; ++k)  // field 22: starttime, in clock ticks after boot
+    if (k == 22) {
+      const double start = std::strtod(field.c_str(), nullptr) / double(sysconf(_SC_CLK_TCK));
+      const double up = double(now.tv_sec) + 1e-9 * double(now.tv_nsec) - start;
+      return up >= 0 && up < 1e7 ? up : -1;
+    }
+  return -1;
+}
+
 void emit(const nlohmann::json& rec, const Options& out) {
-  if (out.json) std::cout << rec.dump() << std::endl;
-  if (!out.record_path.empty()) append(out.record_path, rec);
+  nlohmann::json r = rec;
+  if (const double up = process_seconds(); up >= 0) r["times_s"]["process"] = up;
+  if (out.json) std::cout << r.dump() << std::endl;
+  if (!out.record_path.empty()) append(out.record_path, r);
 }
 
 void set_outcome(nlohmann::json& rec, const Outcome& outcome) {

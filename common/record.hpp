@@ -38,7 +38,13 @@ struct Options {
   bool quiet = false;
 };
 
-// The end of every run that makes a record: printed with --json, appended to --record's file.
+// Seconds since this process began (the kernel's start time of /proc/self/stat, in clock ticks, against
+// CLOCK_BOOTTIME): its whole life so far, program loading, MPI and library start-up included; -1 where the system
+// does not say. The start is rounded down to a tick (10 ms at the usual 100 Hz), so this never falls short.
+double process_seconds();
+
+// The end of every run that makes a record: printed with --json, appended to --record's file, with
+// times_s.process = process_seconds() at that moment (everything the program did, before its exit's clean-up).
 void emit(const nlohmann::json& rec, const Options& out);
 
 // The run's outcome in its record: result.exit_status (common/errors.hpp) and result.exit_reason (null for 0).
