@@ -166,12 +166,7 @@ class CpuMg final : public MgLevels {
     const long n = f.rows.n;
 #pragma omp parallel for schedule(static) if (f.threaded())
     for (long jl = 0; jl < f.rows.ny; ++jl) {
-      const long j = f.rows.y0 + jl;
-      // Fine row j = 2J + 1 takes coarse row J (as half of J and half of J); j = 2J half of rows J - 1 and J.
-      const long J = j / 2 - c.rows.y0;
-      const T* __restrict ca = c.row(c.x, (j & 1) ? J : J - 1);
-      const T* __restrict cb = c.row(c.x, J);
-      T* __restrict x = f.row(f.x, jl);
+      const auto [n_, j, ca, cb, x] = mg_rows::prolong_rows(f, c, jl);
       // Padded fine column k = 2C sits on padded coarse column C; k = 2C + 1 lies between C and C + 1.
       auto value = [&](long k) {
         const long C = k / 2;

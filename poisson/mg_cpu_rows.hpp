@@ -68,15 +68,28 @@ inline void red_from_zero(CpuLevel<T>& lv, long jl) {
   if (c == n) x[c] = b[c] / (d + lv.e);
 }
 
+// The rows the 5-point operator reads on local row jl: x there and above and below, b, and the diagonal (4, plus
+// the last row's e; the last column adds e again, as the callers do).
+template <class T>
+struct StencilRows {
+  long n;
+  const T* x;
+  const T* up;
+  const T* dn;
+  const T* b;
+  T d;
+};
+template <class T>
+inline StencilRows<T> stencil_rows(const CpuLevel<T>& f, long jl) {
+  const long n = f.rows.n;
+  return {n, f.row(f.x, jl), f.row(f.x, jl - 1), f.row(f.x, jl + 1), f.row(f.b, jl),
+          T(4 + (f.rows.y0 + jl == n - 1 ? f.e : T(0)))};
+}
+
 // r = b - A x on local row jl (padded, ghost columns zero).
 template <class T>
 inline void residual_row(const CpuLevel<T>& f, long jl, T* __restrict r) {
-  const long n = f.rows.n;
-  const T* __restrict x = f.row(f.x, jl);
-  const T* __restrict up = f.row(f.x, jl - 1);
-  const T* __restrict dn = f.row(f.x, jl + 1);
-  const T* __restrict b = f.row(f.b, jl);
-  const T d = 4 + (f.rows.y0 + jl == n - 1 ? f.e : T(0));
+  const auto [n, x, up, dn, b, d] = stencil_rows(f, jl);  // (the loops' omp simd: no aliasing to rule out)
 #pragma omp simd
   for (long k = 1; k <= n; ++k) r[k] = b[k] - (d * x[k] - x[k - 1] - x[k + 1] - up[k] - dn[k]);
   r[n] -= f.e * x[n];
@@ -86,12 +99,7 @@ inline void residual_row(const CpuLevel<T>& f, long jl, T* __restrict r) {
 // ‖b - A x‖² on local row jl, summed in double (the residual of residual_row, not stored).
 template <class T>
 inline double residual_norm_row(const CpuLevel<T>& f, long jl) {
-  const long n = f.rows.n;
-  const T* __restrict x = f.row(f.x, jl);
-  const T* __restrict up = f.row(f.x, jl - 1);
-  const T* __restrict dn = f.row(f.x, jl + 1);
-  const T* __restrict b = f.row(f.b, jl);
-  const T d = 4 + (f.rows.y0 + jl == n - 1 ? f.e : T(0));
+  const auto [n, x, up, dn, b, d] = stencil_rows(f, jl);  // (the loops' omp simd: no aliasing to rule out)
   double s = 0;
 #pragma omp simd reduction(+ : s)
   for (long k = 1; k < n; ++k) {
@@ -116,13 +124,24 @@ inline void restrict_row(const T* __restrict r0, const T* __restrict r1, const T
 }
 
 // x += P x_c on the red points of local fine row jl (those all have padded columns of one parity).
+// The rows that prolongation into local fine row jl reads and writes: fine row j = 2J + 1 takes coarse row J (as
+// half of J and half of J), j = 2J half of rows J - 1 and J; and the fine row's x.
+template <class T>
+struct ProlongRows {
+  long n, j;
+  const T* ca;
+  const T* cb;
+  T* x;
+};
+template <class T>
+inline ProlongRows<T> prolong_rows(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
+  const long j = f.rows.y0 + jl, J = j / 2 - c.rows.y0;
+  return {f.rows.n, j, c.row(c.x, (j & 1) ? J : J - 1), c.row(c.x, J), f.row(f.x, jl)};
+}
+
 template <class T>
 inline void prolong_red(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
-  const long n = f.rows.n, j = f.rows.y0 + jl;
-  const long J = j / 2 - c.rows.y0;
-  const T* __restrict ca = c.row(c.x, (j & 1) ? J : J - 1);
-  const T* __restrict cb = c.row(c.x, J);
-  T* __restrict x = f.row(f.x, jl);
+  const auto [n, j, ca, cb, x] = prolong_rows(f, c, jl);
   const long k0 = 1 + (j & 1);
   if (k0 & 1) {
     for (long k = k0; k <= n; k += 2) {
@@ -142,11 +161,7 @@ inline void prolong_red(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
 // halfway between C and C + 1 (the coarse ghost columns are zero).
 template <class T>
 inline void prolong_row(CpuLevel<T>& f, const CpuLevel<T>& c, long jl) {
-  const long n = f.rows.n, j = f.rows.y0 + jl;
-  const long J = j / 2 - c.rows.y0;
-  const T* __restrict ca = c.row(c.x, (j & 1) ? J : J - 1);
-  const T* __restrict cb = c.row(c.x, J);
-  T* __restrict x = f.row(f.x, jl);
+  const auto [n, j, ca, cb, x] = prolong_rows(f, c, jl);
   for (long C = 0; 2 * C <= n; ++C) {
     const T t0 = T(0.5) * (ca[C] + cb[C]), t1 = T(0.5) * (ca[C + 1] + cb[C + 1]);
     if (C > 0) x[2 * C] += t0;
