@@ -24,7 +24,8 @@ MG_VS_HYPRE, CG_VS_PETSC, MG_8192_S = 0.5, 3.0, 10.0
 # Issue 37's: at N = 8191 or 8192, FMG's solve <= 0.5 s and its whole process <= 1.0 s, both faster than the DST
 # solver's; its setup <= 0.35 s, or <= 1.2x the time to write 3 vectors of N² at the triad bandwidth next to it.
 FMG_SOLVE_S, FMG_PROCESS_S, FMG_SETUP_S, SETUP_VS_WRITE = 0.5, 1.0, 0.35, 1.2
-PETSC = {"none": "PETSc CG (AIJ 5-point)", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
+PETSC = {"none": "PETSc CG (AIJ 5-point)", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG",
+         "mg": "PETSc CG + geometric MG (DMDA, Galerkin)"}
 
 
 def _problem(out, stream, title, entries):
@@ -253,7 +254,7 @@ def mg_rows(preset, host, stream):
         if ours:
             first = entry(*ours[0])
             rows_n = [first] + [entry(name, r, first["time to solution (s)"]) for name, r in ours[1:]]
-            for pc in ("hypre", "gamg"):
+            for pc in ("hypre", "gamg", "mg"):
                 p = peer[(peer["params.n"] == n) & (peer["params.precond"] == pc)]
                 if len(p):
                     rows_n.append(entry(f"{PETSC[pc]}, {int(p['params.ranks'].iloc[0])} ranks", p,

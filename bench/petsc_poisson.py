@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """bench/petsc_poisson.py: PETSc's CG on bin/poisson's problem, the peer of `make bench` for --precond mg.
 
-    mpirun -np P /usr/bin/python3 bench/petsc_poisson.py --n N --pc none|hypre|gamg [--tol T] [--max-iter K]
+    mpirun -np P /usr/bin/python3 bench/petsc_poisson.py --n N --pc none|hypre|gamg|mg [--tol T] [--max-iter K]
                                                         [--record FILE] [--json] [--quiet]
 
 The same problem, right-hand side, start, tolerance and norm as bin/poisson: -Δu = f on the unit square, N × N
@@ -9,7 +9,10 @@ interior points, h = 1/(N+1), u = sin²(πx) sin²(πy), the h²-scaled 5-point 
 neighbour) assembled as AIJ in the row layout of a 2-D DMDA on 1 × P processes (so PETSc's ordering is the natural
 one, index j·N + i), b = h² f, x₀ = 0, KSPCG with the UNPRECONDITIONED norm, rtol = T, atol = 0. Preconditioners:
 none (plain CG, whose iterations must equal ours), hypre (BoomerAMG with PETSc's defaults), gamg (PETSc's
-algebraic multigrid with its defaults). Times: setup (assembly), pc_setup (ksp.setUp: the AMG hierarchy), solve
+algebraic multigrid with its defaults), mg (PETSc's geometric multigrid, PCMG on the DMDA's own hierarchy: the
+DMDA coarsened by 2 per level down to 5 × 5, its interpolation, Galerkin coarse operators, one Richardson sweep of
+symmetric SOR before and after, so that the V-cycle is symmetric as CG needs; N must be 2^k + 1, k >= 3, the sizes
+a DMDA halves to the end). Times: setup (assembly), pc_setup (ksp.setUp: the multigrid hierarchy), solve
 (ksp.solve only); error ‖u − u_h‖∞ against the exact solution, true residual ‖b − Ax‖/‖b‖ recomputed.
 
 Debian's petsc4py (python3-petsc4py, `make deps`) runs only under /usr/bin/python3 and needs
@@ -30,8 +33,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis import record  # noqa: E402  (standard library only, so /usr/bin/python3 can import it)
 from bench.peers import positive  # noqa: E402  (NumPy is imported inside its functions only)
 
-PCS = {"none": "none", "hypre": "hypre", "gamg": "gamg"}
-NAMES = {"none": "PETSc CG", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG"}
+PCS = {"none": "none", "hypre": "hypre", "gamg": "gamg", "mg": "mg"}
+NAMES = {"none": "PETSc CG", "hypre": "PETSc CG + hypre BoomerAMG", "gamg": "PETSc CG + GAMG",
+         "mg": "PETSc CG + geometric MG (DMDA)"}
+
+
+def mg_levels(n):
+    """PCMG's levels for N = 2^k + 1 (the DMDA halves N - 1 each level, down to 5 points); None for another N."""
+    k = (n - 1).bit_length() - 1
+    return k - 1 if n >= 9 and n - 1 == 1 << k else None
 
 
 class Parser(argparse.ArgumentParser):
@@ -51,7 +61,7 @@ def parse(argv):
 
 
 def assemble(np, PETSc, comm, n):
-    """The h²-scaled 5-point matrix A on a 2-D DMDA of 1 x P processes, b = h² f and the exact solution u."""
+    """The h²-scaled 5-point matrix A on a 2-D DMDA of 1 x P processes, b = h² f, the exact solution u and the DMDA."""
     h = 1.0 / (n + 1)
     da = PETSc.DMDA().create(dim=2, sizes=(n, n), proc_sizes=(1, comm.getSize()), stencil_width=1,
                              stencil_type=PETSc.DMDA.StencilType.STAR, comm=comm)
@@ -85,10 +95,10 @@ def assemble(np, PETSc, comm, n):
     b.setArray(h * h * f)
     u = b.duplicate()
     u.setArray((sx * sy) ** 2)
-    return A, b, u
+    return A, b, u, da
 
 
-def make_ksp(PETSc, comm, A, a, max_iter):
+def make_ksp(PETSc, comm, A, da, a, max_iter):
     """KSPCG on A with the unpreconditioned norm, rtol = --tol, atol = 0, x₀ = 0 and the preconditioner --pc."""
     ksp = PETSc.KSP().create(comm=comm)
     ksp.setOperators(A)
@@ -96,7 +106,17 @@ def make_ksp(PETSc, comm, A, a, max_iter):
     ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
     ksp.setTolerances(rtol=a.tol, atol=0.0, max_it=max_iter)
     ksp.setInitialGuessNonzero(False)
-    ksp.getPC().setType(PCS[a.pc])
+    pc = ksp.getPC()
+    pc.setType(PCS[a.pc])
+    if a.pc == "mg":
+        ksp.setDM(da)
+        ksp.setDMActive(False)  # the operator is A, assembled above; the DMDA gives only the grid hierarchy
+        opts = PETSc.Options()
+        for key, value in (("pc_mg_levels", mg_levels(a.n)), ("pc_mg_galerkin", "both"),
+                           ("mg_levels_ksp_type", "richardson"), ("mg_levels_ksp_max_it", 1),
+                           ("mg_levels_pc_type", "sor")):
+            opts[key] = value
+        pc.setFromOptions()
     return ksp
 
 
@@ -114,10 +134,10 @@ def check(PETSc, A, b, u, x):
 def solve(np, PETSc, comm, a, n, max_iter):
     """Assembles, sets up and solves; returns the result's fields and the times (setup, pc_setup, solve)."""
     t = time.perf_counter()
-    A, b, u = assemble(np, PETSc, comm, n)
+    A, b, u, da = assemble(np, PETSc, comm, n)
     x = b.duplicate()
     x.set(0.0)
-    ksp = make_ksp(PETSc, comm, A, a, max_iter)
+    ksp = make_ksp(PETSc, comm, A, da, a, max_iter)
     setup_s = time.perf_counter() - t
     t = time.perf_counter()
     ksp.setUp()
@@ -147,6 +167,10 @@ def report(a, rec, exit_status, why):
 
 def main(argv):
     a = parse(argv)
+    if a.pc == "mg" and mg_levels(a.n) is None:
+        print(f"petsc_poisson: --pc mg needs N = 2^k + 1 (9, 17, ..., 4097: the sizes a DMDA halves down to 5 "
+              f"points), not {a.n}", file=sys.stderr)
+        return 2
     try:
         import numpy as np
         from petsc4py import PETSc

@@ -28,8 +28,8 @@ def bench(preset, p):
     mg = f"bin/poisson --backend openmp --threads {t} --precond mg"
     fmg = f"bin/poisson --backend openmp --threads {t} --method fmg"
     dst = f".venv/bin/python -m bench.dst_poisson --threads {t}"
-    e["bench-mg"] = ("Bench: MG-PCG and FMG to 1e-6 against PETSc CG, CG + hypre BoomerAMG and CG + GAMG and the "
-                     "DST direct solver; plain CG per iteration against PETSc's CG", None, [
+    e["bench-mg"] = ("Bench: MG-PCG and FMG to 1e-6 against PETSc CG, CG + hypre BoomerAMG, CG + GAMG, CG + "
+                     "geometric MG and the DST direct solver; plain CG per iteration against PETSc's CG", None, [
         f"bin/poisson --backend openmp --threads {t} --n 512", f"{petsc} --n 512 --pc none",
         f"bin/poisson --backend openmp --threads {t} --n 2048 --steps 200", f"{petsc} --n 2048 --pc none --max-iter 200",
         *(line for n in (1024, 2048, 4096) for line in (
@@ -39,7 +39,10 @@ def bench(preset, p):
         # at our sizes and at the transforms' good ones (N + 1 a power of two), MG-PCG beside them.
         *(line for n in (2048, 4096, 4095, 8192, 8191) for line in (
             f"{fmg} --n {n}", *(f"{dst} --n {n} --fft {fft}" for fft in ("scipy", "fftw")))),
-        f"{mg} --n 8191"])
+        f"{mg} --n 8191",
+        # PETSc's geometric multigrid (PCMG on the DMDA's hierarchy, Galerkin) at a size a DMDA halves to the end
+        # (N = 2^k + 1), ours beside it; last, so that the cases above keep their numbers.
+        f"{mg} --n 4097", f"{fmg} --n 4097", f"{petsc} --n 4097 --pc mg"])
     e["bench-hemicube"] = ("Bench: form factors of room3.xml by the hemicube, R = 256, patches per second", None, [
         f"bin/radiosity formfactors {room3} -o {ff} --hemicube 256 --weights exact --threads {t}"])
     e["bench-jacobi"] = ("Bench: Jacobi steps on room3.xml, float32, ours (AOS, SOA; F in float32, float16, bfloat16) "
