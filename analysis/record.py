@@ -113,10 +113,13 @@ def provenance(libraries=None):
     """What ran and where: git commit and dirty flag, Python and library versions (`libraries`: name -> version
     text, e.g. numpy's and its BLAS), host, CPU, threads, the environment of ENV_KEYS, UTC time."""
     head = _git("rev-parse", "HEAD")
-    dirty = _git("diff", "--quiet", "HEAD", "--")
+    # dirty as the Makefile's GIT_CHANGES has it for the C++ programs: a tracked file that differs from HEAD or an
+    # untracked one not ignored, the study's outputs (results/, report/) left out, since the runs write them
+    changes = _git("status", "--porcelain", "--", ".", ":(exclude)results", ":(exclude)report")
     p = {
         "git_commit": head.stdout.strip() if head and head.returncode == 0 else "unknown",
-        "git_dirty": bool(dirty is None or dirty.returncode != 0),
+        "git_dirty": bool(head is None or head.returncode != 0 or changes is None or changes.returncode != 0
+                          or changes.stdout.strip()),
         "compiler": f"Python {platform.python_version()} ({platform.python_implementation()})",
         "libraries": dict(libraries or {}),
         "host": socket.gethostname(),

@@ -3,6 +3,7 @@ out of the tables and counted; the runner's state files are joined, a disturbed 
 counted, a group stopped at its cap or wider than +-5% is marked capped; and the reference machine's committed
 records obey the protocol."""
 import json
+import shutil
 import subprocess
 import sys
 
@@ -119,3 +120,38 @@ def test_reference_records_obey_the_protocol():
             assert n >= 5 or (n >= 3 and not protocol.capped(med, lo, hi)), f"{where}: too few runs"
             assert cap or (hi - med <= 0.05 * med and med - lo <= 0.05 * med), where
             assert not disturbed, f"{where}: a disturbed run inside the median"
+
+
+def test_python_records_count_dirty_as_the_binaries_do(tmp_path):
+    """analysis.record's git_dirty follows the Makefile's GIT_CHANGES: a run that appends to a committed record file
+    (results/) leaves the tree clean, a changed or new source file makes it dirty. (The Python peers of a second
+    make bench on a machine with committed records were all marked dirty before.)"""
+    clone = tmp_path / "clone"
+    subprocess.run(["git", "clone", "-q", "--no-checkout", str(ROOT), str(clone)], check=True)
+    subprocess.run(["git", "checkout", "-q", "HEAD", "--", "analysis", "common"], cwd=clone, check=True)
+    subprocess.run(["git", "reset", "-q"], cwd=clone, check=True)
+    for d in ("analysis", "common"):  # this tree's code, committed or not
+        shutil.copytree(ROOT / d, clone / d, dirs_exist_ok=True, ignore=shutil.ignore_patterns("__pycache__"))
+    subprocess.run(["git", "add", "analysis", "common"], cwd=clone, check=True)
+    # only analysis/ and common/ checked out: the rest of the tree "deleted" would count as changes, so commit that
+    subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qam", "only what the test needs"],
+                   cwd=clone, check=True)
+
+    def dirty():
+        p = subprocess.run([sys.executable, "-c", "from analysis import record; "
+                            "print(record.provenance()['git_dirty'])"], cwd=clone, capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        return p.stdout.strip()
+
+    assert dirty() == "False"
+    (clone / "results" / "m").mkdir(parents=True)
+    (clone / "results" / "m" / "r.jsonl").write_text("{}\n")
+    (clone / "report").mkdir()
+    (clone / "report" / "R.md").write_text("x\n")
+    assert dirty() == "False"
+    (clone / "analysis" / "new.py").write_text("")
+    assert dirty() == "True"
+    (clone / "analysis" / "new.py").unlink()
+    with open(clone / "analysis" / "escape.py", "a") as f:
+        f.write("# changed\n")
+    assert dirty() == "True"
