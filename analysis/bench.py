@@ -332,7 +332,11 @@ def write(preset):
                  f"{threads} threads, 32 steps; slurm/bench runs the storages in rounds, so they alternate in the same "
                  f"minutes. MB of F per step: what the product reads (perf.matrix_bytes); time / its limit: the time "
                  f"per step over those bytes at the read-only sweep measured next to each repeat (median over the "
-                 f"repeats).\n\n" + markdown(sp_out, ".3g") + "\n\n"
+                 f"repeats). its own read sweep: the same arrays of F read, and nothing else done, in the same "
+                 f"process on the same threads right after the steps (--read-sweeps; best of 32), so in the same cache "
+                 f"state: F read again and again stays partly in a large last-level cache, which bin/stream's "
+                 f"256 MiB arrays do not; time / its own limit: the time per step over those bytes at that bandwidth "
+                 f"(empty for records made before the bench asked for it).\n\n" + markdown(sp_out, ".3g") + "\n\n"
                  + "".join(f"- {t}\n" for t in sp_targets))
     tables_dir().mkdir(parents=True, exist_ok=True)
     path = tables_dir() / f"bench_{preset}.md"

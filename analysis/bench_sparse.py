@@ -10,9 +10,19 @@ from analysis.records import load
 # compressed storage (compressed or runs) at least 4x faster per Jacobi step than dense float32 on room3, in the same
 # run.
 CSR_SLACK, COMPRESSED_VS_DENSE = 1.25, 4.0
-# Issue 37's: every sparse storage's room3 step within 1.3x of its matrix bytes at the read sweep next to it
-# (bin/stream's read-only sweep, measured before and after the case).
+# Issue 37's: every sparse storage's room3 step within 1.3x of its matrix bytes at the corrected read bandwidth: the
+# product's own read sweep (bin/radiosity solve --read-sweeps: the same arrays, read in the same process on the same
+# threads right after the steps), where its records have it; else bin/stream's read-only sweep next to the case.
 SPARSE_SLACK = 1.3
+OWN_SWEEP = "perf.read_sweep_GBps"
+
+
+def _own_sweep_records(r):
+    """The records of one storage that carry the product's own read sweep, where any do: those supersede the
+    records made before the bench asked for it (the same storage, another case line)."""
+    if OWN_SWEEP not in r.columns or not r[OWN_SWEEP].notna().any():
+        return r, False
+    return r[r[OWN_SWEEP].notna()], True
 
 
 def sparse_rows(preset, host, stream):
@@ -26,12 +36,19 @@ def sparse_rows(preset, host, stream):
     df = df.assign(scene_name=df["params.scene"].map(lambda x: x.rsplit("/", 1)[-1]))
     for scene, g in df.groupby("scene_name", sort=False):
         for k, ((storage, values), r) in enumerate(g.groupby(["params.storage", "params.ff_precision"], sort=False)):
+            r, own = _own_sweep_records(r)
             nbytes = float(r["perf.matrix_bytes"].iloc[0])
             read = [limit_next_to(stream, r.iloc[[i]], "perf.read_GBps") for i in range(len(r))]
             t = median_of(r, "times_s.per_iteration")
-            over = float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], read)])
-                         .median())
-            per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()))
+
+            def over_at(bws):  # the median over the repeats of the step's time over its bytes at each one's bandwidth
+                return float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], bws)])
+                             .median())
+            over = over_at(read)
+            own_bw = list(r[OWN_SWEEP]) if own else None
+            per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()),
+                                             over_at(own_bw) if own else None,
+                                             float(pd.Series(own_bw).median()) if own else None)
             consistency.quote(f"{scene}: one Jacobi step, OpenMP, float (ms)",
                               f"make bench ({preset}), sparse table, {scene} {storage} {values}",
                               1e3 * r["times_s.per_iteration"], r)
@@ -44,14 +61,19 @@ def sparse_rows(preset, host, stream):
                         "ms per step": 1e3 * t, "95% interval (ms)": ci_of(r, "times_s.per_iteration", 1e3),
                         "GB/s": nbytes / t / 1e9,
                         "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
-                        "repeats": len(r)})
+                        "its own read sweep": per[(scene, storage, values)][4],
+                        "time / its own limit": per[(scene, storage, values)][3], "repeats": len(r)})
     csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
     if csr:
         targets.append(f"CSR float32 room3: {csr[1]:.2f}x its matrix bytes at the read sweep next to it "
                        f"({csr[2]:.1f} GB/s; target <= {CSR_SLACK}x): {'met' if csr[1] <= CSR_SLACK else 'NOT met'}")
-    for (scene, storage, values), (_, over, bw) in per.items():
+    for (scene, storage, values), (_, over, bw, own_over, own_bw) in per.items():
         if scene == "room3.xml" and storage != "dense":
-            targets.append(f"{storage} {values} room3: {over:.2f}x its matrix bytes at the read sweep next to it "
+            if own_over is not None:
+                over, bw, where = own_over, own_bw, "its own read sweep (the same arrays, read in the same process)"
+            else:
+                where = "the read sweep next to it"
+            targets.append(f"{storage} {values} room3: {over:.2f}x its matrix bytes at {where} "
                            f"({bw:.1f} GB/s; target <= {SPARSE_SLACK}x): {'met' if over <= SPARSE_SLACK else 'NOT met'}")
     for storage, values in (("runs", "float16"), ("runs", "float32"), ("compressed", "float16"), ("compressed", "float32")):
         comp = per.get(("room3.xml", storage, values))

@@ -3,8 +3,12 @@
 // the caches, after McCalpin's STREAM:
 //   triad  a = b + s·c   counted as 24 bytes per element (2 reads, 1 write; STREAM's convention: the line that
 //                        a write allocates is not counted, so the true traffic is 32 bytes where stores allocate)
-//   read   Σ a           8 bytes per element (a read-only sweep, the pattern of a matrix-vector product; each
-//                        thread reads its block as four streams, each line asked for ahead, see read_block)
+//   read   Σ b           8 bytes per element (a read-only sweep, the pattern of a matrix-vector product; each
+//                        thread reads its block as four streams, common/read_sweep.hpp, summed as 64-bit words).
+//                        It reads b, which nothing writes after the first touch: until issue 37 it read a, just
+//                        written by the triad, so the sweep also paid for writing back the triad's dirty lines as it
+//                        evicted them (2-core Intel VM, 2026-12-06, three alternating runs of --threads 2 --trials
+//                        10: 34.0-35.8 GB/s reading a, 42.2-47.6 GB/s reading b), and the dense product out-read it.
 // Each sweep runs --trials times; the record keeps the best (STREAM's figure) and the median trial. The arrays are
 // first touched by the same static schedule as the sweeps, and the results are checked after the timing.
 // --device gpu runs the same two sweeps in the GPU's memory (bench/stream_gpu.cu), timed by CUDA events.
@@ -24,6 +28,7 @@
 #include "common/files.hpp"
 #include "common/errors.hpp"
 #include "common/memory.hpp"
+#include "common/read_sweep.hpp"
 #include "common/record.hpp"
 #include "bench/stream_gpu.hpp"
 #include "common/timer.hpp"
@@ -42,44 +47,13 @@ struct Stats {
   double best = 0, median = 0;  // seconds
 };
 
-// The read sweep of the calling thread: its block of a (the split of schedule(static) that first touched it), in
-// kStreams parts read side by side, each line asked for --read-prefetch bytes ahead (default 0: the hardware's
-// prefetch alone). Both were tried for issue 37, whose dense Jacobi product out-read the one-stream sweep by 1.28x on
-// another day: on the 2-core EPYC VM, quiet, five alternating runs each (bin/stream --threads 2 --trials 10), the
-// one-stream sweep read 28.1-40.7 GB/s best, four streams 27.8-35.6, four streams with 4096 bytes ahead 25.7-33.3:
-// no gain, so the default asks for nothing ahead. triad's three arrays are three streams already.
-constexpr int kStreams = 4;
-constexpr long kLine = 64 / sizeof(double);  // doubles a cache line
-typedef double Line __attribute__((vector_size(64)));  // a line's 8 doubles (AVX-512: one register; AVX2: two)
-double read_block(const double* a, long n, long prefetch_bytes) {
-  const long t = omp_get_thread_num(), nt = omp_get_num_threads(), q = n / nt, r = n % nt;
-  const long begin = t * q + std::min(t, r), size = q + (t < r ? 1 : 0), len = size / kStreams;
-  const double* p = a + begin;
-  const long ahead = prefetch_bytes / long(sizeof(double));
-  Line s[kStreams] = {};  // partial sums per lane: a plain sum is one chain of dependent adds
-  long i = 0;
-  for (; i + kLine <= len; i += kLine)  // a line of each stream a pass, the line `ahead` further asked for
-    for (int k = 0; k < kStreams; ++k) {
-      const double* line = p + k * len + i;
-      if (ahead > 0) __builtin_prefetch(line + ahead);  // (past the block: a prefetch never faults)
-      Line v;
-      std::memcpy(&v, line, sizeof v);
-      s[k] += v;
-    }
-  double sum = 0;
-  for (int k = 0; k < kStreams; ++k) {
-    for (long l = i; l < len; ++l) sum += p[k * len + l];  // the last values of each stream
-    for (long l = 0; l < kLine; ++l) sum += s[k][l];
-  }
-  for (long l = kStreams * len; l < size; ++l) sum += p[l];  // the remainder
-  return sum;
-}
-
 Stats stats(std::vector<double> t) {
   std::sort(t.begin(), t.end());
   const size_t m = t.size() / 2;
   return {t.front(), t.size() % 2 ? t[m] : 0.5 * (t[m - 1] + t[m])};
 }
+
+constexpr double kOne = 1.0;
 
 // The sweeps on the CPU's OpenMP threads: the seconds of each trial, and whether the values were right.
 bool cpu_sweeps(const Args& a, std::vector<double>& triad_t, std::vector<double>& read_t) {
@@ -94,21 +68,24 @@ bool cpu_sweeps(const Args& a, std::vector<double>& triad_t, std::vector<double>
     z[i] = 2.0;
   }
   const double s = 3.0;
-  double sum = 0;
+  uint64_t sum = 0;
   for (int k = 0; k < a.trials; ++k) {
     hpcgi::Timer t;
 #pragma omp parallel for schedule(static)
     for (long i = 0; i < n; ++i) x[i] = y[i] + s * z[i];
     triad_t.push_back(t.seconds());
     t.reset();
-    double acc = 0;
+    uint64_t acc = 0;
 #pragma omp parallel reduction(+ : acc)
-    acc += read_block(x, n, a.read_prefetch);
+    acc += hpcgi::read_share(y, sizeof(double) * size_t(n), omp_get_thread_num(), omp_get_num_threads(),
+                             size_t(a.read_prefetch));
     read_t.push_back(t.seconds());
     sum = acc;
   }
-  // Every element of a is 1 + 3·2 = 7, so the read sweep must have summed 7n (exact in double for n < 2^49).
-  return sum == 7.0 * static_cast<double>(n) && std::all_of(x, x + n, [](double v) { return v == 7.0; });
+  // Every element of a is 1 + 3·2 = 7; the read sweep summed b's n words of 1.0's bits (wrapping).
+  uint64_t one;
+  std::memcpy(&one, &kOne, sizeof one);
+  return sum == uint64_t(n) * one && std::all_of(x, x + n, [](double v) { return v == 7.0; });
 }
 
 int run(const Args& a) {
@@ -138,7 +115,7 @@ int run(const Args& a) {
   nlohmann::json rec = hpcgi::record::make("stream");
   rec["params"] = {{"size", n}, {"array_bytes", 8.0 * n}, {"trials", a.trials}, {"threads", threads},
                    {"precision", "double"}, {"device", a.device}};
-  if (!gpu) rec["params"]["read_sweep"] = {{"streams_per_thread", kStreams}, {"prefetch_bytes", a.read_prefetch}};
+  if (!gpu) rec["params"]["read_sweep"] = {{"streams_per_thread", hpcgi::kReadStreams}, {"prefetch_bytes", a.read_prefetch}};
   rec["result"] = {{"valid", valid}};
   rec["times_s"] = {{"triad_best", tr.best}, {"triad_median", tr.median}, {"read_best", rd.best},
                     {"read_median", rd.median}};
@@ -160,7 +137,7 @@ int run(const Args& a) {
                   8.0 * n / (1 << 20), threads, a.trials);
     std::printf("  triad a = b + s*c: %.2f GB/s (median %.2f GB/s)\n", triad_bytes / tr.best / 1e9,
                 triad_bytes / tr.median / 1e9);
-    std::printf("  read  sum(a):      %.2f GB/s (median %.2f GB/s)\n", read_bytes / rd.best / 1e9,
+    std::printf("  read  sum(%s):      %.2f GB/s (median %.2f GB/s)\n", gpu ? "a" : "b", read_bytes / rd.best / 1e9,
                 read_bytes / rd.median / 1e9);
   }
   hpcgi::record::emit(rec, a);
@@ -173,7 +150,7 @@ int main(int argc, char** argv) {
   Args a;
   CLI::App app{
       "The memory bandwidth of this machine with the solvers' compiler, flags and OpenMP threads: a STREAM triad\n"
-      "(a = b + s*c, 24 bytes per element) and a read-only sweep (sum of a, 8 bytes per element) over arrays far\n"
+      "(a = b + s*c, 24 bytes per element) and a read-only sweep (sum of b, 8 bytes per element) over arrays far\n"
       "larger than the caches; best and median of --trials sweeps.",
       "stream"};
   app.add_option("--size", a.size, "elements (doubles) per array; 3 arrays")

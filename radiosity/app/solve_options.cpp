@@ -43,6 +43,10 @@ void add_method_options(CLI::App* cmd, SolveArgs& a, GivenOptions& g) {
   add_choice(cmd, "--start", a.cfg.start, parse_start, "b_0: rrv (max(radiosity, emission), RRV's) | zero | emission");
   cmd->add_flag("--history", a.cfg.history,
                 "record every iterate's residuals and steps (result.history; O(n) per iteration)");
+  cmd->add_option("--read-sweeps", a.cfg.read_sweeps,
+                  "after the method, K read-only sweeps over the arrays of F a product reads, on the same threads "
+                  "(times_s.read_sweep_*, perf.read_sweep_GBps: the product's byte limit; serial, openmp)")
+      ->check(hpcgi::integer_in(0, 100000))->capture_default_str();
   auto* steps = cmd->add_option("--steps", a.cfg.steps, "exactly K Jacobi (Gauss-Seidel, SOR) steps (RRV: 32), no tolerance")
                     ->check(hpcgi::integer_in(1, 1LL << 40));
   cmd->add_option("--tol", a.cfg.tol, "stop when the stopping rule (--stop; default: every channel's ||e - A b|| / ||e||) is <= tol")

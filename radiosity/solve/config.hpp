@@ -24,6 +24,8 @@ struct SolveConfig {
   StopRule stop;                    // the stopping rule (stop_rule.hpp): ‖e - A b‖ / ‖e‖ per channel by default
   Start start = Start::rrv;         // b_0: rrv (System::initial, RRV's max(radiosity, emission)) | zero | emission
   bool history = false;             // keep every iterate's norms (SolveResult::history)
+  int read_sweeps = 0;              // serial, openmp: after the method, this many read-only sweeps over F's own arrays
+                                    //   (SolveResult::read_sweep_s), the product's byte limit in the same process
   double omega = 1.0;               // sor: the relaxation factor, in (0, 2); gauss-seidel is sor with omega 1
   long max_iter = 1000;             // steps == 0: give up after this many iterations
   int threads = 0;                  // openmp: 0 = the OpenMP default; the single-threaded backends ignore it
@@ -69,6 +71,10 @@ struct SolveResult {
   double setup_s = 0;             // building the backend's data and loading B0
   double solve_s = 0;             // the iterations, without the time spent in the callback
   double check_s = 0;             // fetching B and recomputing the residual
+  // cfg.read_sweeps: the seconds of each read-only sweep over the arrays one pass reads (read_sweep_bytes of them:
+  // matrix_bytes, or for dense every row), on the backend's threads, after the method.
+  std::vector<double> read_sweep_s;
+  double read_sweep_bytes = 0;
   // GPU backends (zero for the others). setup_s includes upload_s; the rest is the solve's, callbacks excluded.
   double upload_s = 0;            // the form factors host -> device (cublas double: with their widening to double)
   double transfer_s = 0;          // copies during the solve: reduction results, hybrid's halves (CUDA events)

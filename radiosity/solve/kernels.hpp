@@ -48,6 +48,12 @@ class Kernels {
   }
   virtual int threads() const = 0;
   virtual double matrix_bytes() const = 0;  // bytes one matvec reads from the matrix
+  // k read-only sweeps over the arrays of the matrix (common/read_sweep.hpp) on the backend's threads: the seconds of
+  // each, and the bytes each read. Only the host backends sweep; solve() refuses --read-sweeps for the others before
+  // anything is built, so this default is never reached from there.
+  virtual std::pair<std::vector<double>, double> read_sweeps(int /*k*/) {
+    throw hpcgi::UsageError("this backend does not sweep its matrix (serial and openmp do)");
+  }
   // Channels it solves: 3, or 1 for a grey system solved once (its dots and downloads give r = g = b).
   virtual int channels() const { return 3; }
   // For a backend with a clock of its own (the GPU backends' CUDA events). settled(): returns once all the work

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 
 #include "common/cli.hpp"
 #include "common/errors.hpp"
@@ -43,6 +44,7 @@ SolveResult run_method(KernelFactory<T> make, const System& sys, const SolveConf
   res.e2 = e2;
   res.r0_2 = run.r0_2;
   res.matrix_bytes = k->matrix_bytes();
+  if (cfg.read_sweeps > 0) std::tie(res.read_sweep_s, res.read_sweep_bytes) = k->read_sweeps(cfg.read_sweeps);
   res.threads = k->threads();
   res.channels = k->channels();
   k->account(res);
@@ -114,6 +116,7 @@ enum Facts : unsigned {
   kSparseStorage = 16,   // reads csr and compressed F (the GPU backends)
   kGpu = 32,             // runs on an NVIDIA GPU
   kRrvLoop = 64,         // RRV's loop as it was (backend original)
+  kReadSweep = 128,      // sweeps its matrix's arrays (--read-sweeps: the host kernels)
 };
 SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, std::vector<Layout> layouts,
                  std::vector<Precision> precisions, Build build, const char* summary) {
@@ -125,6 +128,7 @@ SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, 
   b.sparse_storage = (facts & kSparseStorage) != 0;
   b.gpu = (facts & kGpu) != 0;
   b.rrv_loop = (facts & kRrvLoop) != 0;
+  b.read_sweep = (facts & kReadSweep) != 0;
   return b;
 }
 }  // namespace
@@ -139,10 +143,10 @@ const std::vector<SolveBackend>& solve_backends() {
       row("original", kFixedStepsOnly | kRrvLoop, {Method::jacobi}, {Layout::aos}, {Precision::single},
           built_in(run_original),
           "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element"),
-      row("serial", kTolerance | kAnyStorage | kOneChannel, kAll, kAosSoa, kBoth,
+      row("serial", kTolerance | kAnyStorage | kOneChannel | kReadSweep, kAll, kAosSoa, kBoth,
           built_in(run_kernels<make_serial<float>, make_serial<double>>),
           "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread"),
-      row("openmp", kTolerance | kAnyStorage | kOneChannel, kAll, kAosSoa, kBoth,
+      row("openmp", kTolerance | kAnyStorage | kOneChannel | kReadSweep, kAll, kAosSoa, kBoth,
           built_in(run_kernels<make_openmp<float>, make_openmp<double>>),
           "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
           "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)"),
@@ -219,6 +223,9 @@ void check_config(const SolveConfig& cfg) {
     if (cfg.max_iter < 1) throw hpcgi::UsageError("max_iter must be >= 1");
   }
   if (cfg.threads < 0) throw hpcgi::UsageError("threads must be >= 0 (0: the OpenMP default)");
+  if (cfg.read_sweeps < 0) throw hpcgi::UsageError("read_sweeps must be >= 0");
+  if (cfg.read_sweeps > 0 && !b->read_sweep)
+    throw hpcgi::UsageError("backend '" + b->name + "' does not sweep its matrix (--read-sweeps: serial and openmp)");
   if (!std::isfinite(cfg.ff_threshold)) throw hpcgi::UsageError("ff_threshold must be a number");
   if (cfg.ff_threshold != 0 && !b->rrv_loop)
     throw hpcgi::UsageError("ff_threshold applies to backend 'original' only (the dense backends use every F_ij)");

@@ -34,6 +34,7 @@ struct SolveBackend {
   bool sparse_storage = false;  // reads csr and compressed F with any values, dense float32 only (the GPU backends)
   bool gpu = false;             // runs on an NVIDIA GPU (--list-backends; the kit's GPU cases)
   bool rrv_loop = false;        // RRV's loop as it was: no history, no stopping rule; the one that takes ff_threshold
+  bool read_sweep = false;      // sweeps its matrix's arrays after the method (--read-sweeps)
 };
 const std::vector<SolveBackend>& solve_backends();
 

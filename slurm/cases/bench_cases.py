@@ -55,13 +55,14 @@ def bench(preset, p):
           f"--threads {t}" for w in ("gemm", "gemv"))])
     # Issue 17: the sparse storages beside dense float32 on room3 (R = 256) and room2 (R = 64, made by slurm/bench),
     # 32 Jacobi steps each; slurm/bench runs this list in rounds, so the storages alternate in the same minutes, and
-    # analysis.bench sets each against its matrix bytes over the read sweep measured next to it.
+    # analysis.bench sets each against its matrix bytes over the read sweep measured next to it, and (issue 37) over
+    # its own read sweep: --read-sweeps 32, the same arrays read 32 times right after the steps, in the same process.
     sparse = [("dense", "float32"), ("csr", "float32"), ("compressed", "float32"), ("compressed", "float16"),
               ("runs", "float32"), ("runs", "float16")]
     e["bench-sparse"] = ("Bench: Jacobi steps on room3.xml and room2.xml, F dense float32 beside csr, compressed and "
                          "runs (float32, float16 values), each against its bytes over the read sweep", 5, [
         f"bin/radiosity solve {sc} --ff {f} --steps 32 --backend openmp --precision float --layout aos "
-        f"--storage {st} --ff-precision {v} --threads {t} --no-verify"
+        f"--storage {st} --ff-precision {v} --threads {t} --no-verify --read-sweeps 32"
         for sc, f in ((room3, ff), ("{RRV_SCENES}/room2.xml", "{FF_DIR}/bench-room2.ff")) for st, v in sparse])
     # Issue 20: the product with k right-hand sides (one pass over F), room2's basis frames (its form factors at
     # R = 64, made once by slurm/bench) and room3's wall 10% darker, warm-started.
