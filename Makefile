@@ -275,7 +275,8 @@ clean:
 # The GPU kit (docs/running.md, section "On a bare GPU node"): the programs built for CUDA_ARCHS without MPI into their own
 # objects (KIT_BUILD; KIT_OPT instead of -march=native, since the node's CPU is not this one), linked by
 # gpukit/link.mk, then packed by gpukit/pack.py into KIT with the libraries, scenes, case lists and gpu-kit/run, and
-# stand-ins for cuBLAS and cuSPARSE built by CC (lib/stubs: used on a node that lacks them, so the rest runs).
+# stand-ins for cuBLAS and cuSPARSE built by CC (lib/stubs: used on a node that lacks them, so the rest runs). It
+# refuses a tree with uncommitted changes (GIT_CHANGES, the rule of the binaries' git_dirty): DIRTY_KIT=1 to try one.
 KIT        ?= build/gpu-kit
 CUDA_ARCHS ?= $(CUDA_ARCH)
 KIT_OPT    ?= -O3 -march=x86-64-v3
@@ -287,6 +288,10 @@ KIT_GENCODE := $(foreach a,$(CUDA_ARCHS),-gencode arch=compute_$(a),code=sm_$(a)
 export PRESET RUNNER EXPERIMENTS AUDIT_SAMPLE KIT CUDA_ARCHS FUZZ_SECONDS FUZZ_BUILD
 gpu-kit:
 	@$(if $(HAVE_CUDA),,echo "make gpu-kit: needs nvcc (CUDA 13) on PATH or NVCC=...; none found" >&2; exit 2)
+	@dirty=$(if $(GIT_CHANGES),1,); if [ -n "$$dirty" ] && [ "$$DIRTY_KIT" != 1 ]; then echo "make gpu-kit: the tree \
+	has uncommitted changes (git status): the kit's records would carry a dirty commit and no table would count them; \
+	commit first (DIRTY_KIT=1 makes one anyway, to try it)" >&2; exit 2; elif [ -n "$$dirty" ]; then echo "make \
+	gpu-kit: DIRTY_KIT=1: a kit of a tree with uncommitted changes, whose records no table will count" >&2; fi
 	@scenes=$$(radiosity/scenes/rrv/dir) || { echo "make gpu-kit: the kit carries RRV's scenes, and $$scenes \
 	lacks room2.xml, room3.xml or teapot.obj: run 'make scenes' or set RRV_SCENES=DIR" >&2; exit 2; }
 	@$(MAKE) --no-print-directory -f Makefile -f gpukit/link.mk BUILD=$(KIT_BUILD) BIN=$(KIT_BUILD)/bin \

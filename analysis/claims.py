@@ -181,7 +181,11 @@ def _gpu_poisson(claim, preset):
     gpu = plain[plain["column"].isin(table41.GPU)] if len(plain) else plain
     if gpu.empty:
         return []
-    n = gpu["params.n"].max()
+    cpu_n = set(plain[~plain["column"].isin(table41.GPU)]["params.n"])
+    both = [n for n in set(gpu["params.n"]) if n in cpu_n]
+    if not both:
+        return []
+    n = max(both)  # the largest N where this machine ran both the CPU and the GPU
     at = plain[plain["params.n"] == n]
     g, gname = _fastest(at, table41.GPU)
     c, cname = _fastest(at, [x for x in set(at["column"]) if x not in table41.GPU])

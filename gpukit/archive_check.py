@@ -92,7 +92,8 @@ def _member_name(m, seen):
 
 
 def _wanted(name, m):
-    """Whether a member is kept: a regular file under results/ that is a machine.json or a records file."""
+    """Whether a member is kept: a regular file under results/ that is a machine.json, a records file or a state
+    file (<preset>.state.jsonl)."""
     return m.isreg() and name.startswith("results/") and (name.endswith(".jsonl") or name.endswith("/machine.json"))
 
 
@@ -165,28 +166,49 @@ def check_machine(data, where):
     return machine, mid
 
 
-def _records(name, data):
-    """The records of one file, each once, in order: [(key, line)], and how many were duplicates."""
+def same_gpu(a, b):
+    """Whether two names of a GPU name the same model (nvidia-smi's and CUDA's may differ in spacing and vendor)."""
+    norm = lambda x: re.sub(r"[^a-z0-9]", "", str(x).lower()).removeprefix("nvidia")
+    return bool(norm(a)) and bool(norm(b)) and (norm(a) in norm(b) or norm(b) in norm(a))
+
+
+def _lines(name, data, what):
+    """[(where, line, JSON object)] of one JSON Lines file, each line whole and within the limits."""
     if data and not data.endswith(b"\n"):
-        raise Refused(f"{name} ends in half a record (no final newline)")
-    out, seen, dup = [], set(), 0
+        raise Refused(f"{name} ends in half a {what} (no final newline)")
+    out = []
     for k, raw in enumerate(data.split(b"\n")[:-1] if data else [], 1):
         where = f"{name}:{k}"
         if len(raw) > MAX_LINE:
-            raise Refused(f"{where} is over {MAX_LINE >> 20} MiB, no record")
+            raise Refused(f"{where} is over {MAX_LINE >> 20} MiB, no {what}")
         try:
             line = raw.decode("utf-8")
-            rec = loads(line)
+            obj = loads(line)
         except ValueError as e:
-            raise Refused(f"{where} is not a whole record ({str(e)[:80]})") from None
-        if not isinstance(rec, dict):
-            raise Refused(f"{where} is no record (a JSON {type(rec).__name__}, not an object)")
+            raise Refused(f"{where} is not a whole {what} ({str(e)[:80]})") from None
+        if not isinstance(obj, dict):
+            raise Refused(f"{where} is no {what} (a JSON {type(obj).__name__}, not an object)")
+        out.append((where, line, obj))
+    return out
+
+
+def _records(name, data, machine):
+    """The records of one file, each once, in order: [(key, line)], and how many were duplicates. Every record was
+    made by the node (its HPCGI_MACHINE_ID is the machine.json's), and a GPU run names the node's GPU; the CPU runs
+    the kit makes beside the GPU's (the OpenMP cells the GPU claims compare with) carry no GPU."""
+    out, seen, dup = [], set(), 0
+    for where, line, rec in _lines(name, data, "record"):
         wrong = validate(rec)
         if wrong:
             raise Refused(f"{where} is no valid hpcgi-record/1 record ({wrong[:160]})")
+        env = (rec.get("provenance") or {}).get("env") or {}
+        if str(env.get("HPCGI_MACHINE_ID", "")).lower() != machine["machine_id"].lower():
+            raise Refused(f"{where} was not made by the machine of the archive's machine.json (its HPCGI_MACHINE_ID "
+                          f"is {str(env.get('HPCGI_MACHINE_ID'))[:16]!r}): nothing imported")
         gpu = (rec.get("backend_info") or {}).get("gpu")
-        if not gpu or not gpu.strip():
-            raise Refused(f"{where} carries no GPU (backend_info.gpu): not a GPU run, nothing imported")
+        if gpu is not None and not same_gpu(gpu, machine["gpu"]):
+            raise Refused(f"{where} names the GPU {str(gpu)[:60]!r}, not the node's ({str(machine['gpu'])[:60]!r}): "
+                          "nothing imported")
         h = key(rec)
         if h in seen:
             dup += 1
@@ -196,23 +218,46 @@ def _records(name, data):
     return out, dup
 
 
+STATE_KEYS = {"case": str, "repeat": int}  # a state line's keys that the tables read, with their types
+
+
+def _states(name, data):
+    """The state lines of one file (the GPU's and the node's state beside each run), each once: [(key, line)]."""
+    out, seen = [], set()
+    for where, line, st in _lines(name, data, "state line"):
+        for k, t in STATE_KEYS.items():
+            if not isinstance(st.get(k), t) or isinstance(st.get(k), bool):
+                raise Refused(f"{where}: a state line's {k!r} must be a {t.__name__}: nothing imported")
+        if "disturbed" in st and not isinstance(st["disturbed"], bool):
+            raise Refused(f"{where}: a state line's 'disturbed' must be true or false: nothing imported")
+        h = key(st)
+        if h not in seen:
+            seen.add(h)
+            out.append((h, line))
+    return out
+
+
 def check(files):
     """The Plan of an archive's kept members, or Refused."""
     label = _label(files)
     machine = files.get(f"results/{label}/machine.json")
     if machine is None:
         raise Refused(f"it has no results/{label}/machine.json (the GPU node's description)")
-    _, mid = check_machine(machine, f"results/{label}/machine.json")
+    described, mid = check_machine(machine, f"results/{label}/machine.json")
     records, dup = {}, 0
     for name, data in sorted(files.items()):
         p = PurePosixPath(name)
         if p.suffix != ".jsonl":
             continue
-        if len(p.parts) != 4 or not NAME.match(p.parts[2]) or not NAME.match(p.stem):
-            raise Refused(f"{name[:200]!r} is not results/<label>/<experiment>/<preset>.jsonl (names of letters, "
-                          f"digits, '-' and '_')")
-        records[f"{p.parts[2]}/{p.name}"], n = _records(name, data)
-        dup += n
-    if not any(records.values()):
+        stem = p.name[: -len(".state.jsonl")] if p.name.endswith(".state.jsonl") else p.stem
+        if len(p.parts) != 4 or not NAME.match(p.parts[2]) or not NAME.match(stem):
+            raise Refused(f"{name[:200]!r} is not results/<label>/<experiment>/<preset>.jsonl or .state.jsonl (names "
+                          f"of letters, digits, '-' and '_')")
+        if p.name.endswith(".state.jsonl"):
+            records[f"{p.parts[2]}/{p.name}"] = _states(name, data)
+        else:
+            records[f"{p.parts[2]}/{p.name}"], n = _records(name, data, described)
+            dup += n
+    if not any(v for k, v in records.items() if not k.endswith(".state.jsonl")):
         raise Refused("it holds no records")
     return Plan(label, machine, mid, records), dup

@@ -1,29 +1,38 @@
 #!/usr/bin/env python3
 """gpu-kit/run: the GPU half of the study on a bare GPU node, in one command, within a budget.
 
-    gpu-kit/run [--dry-run] [--out DIR] [--budget S]      (env: BUDGET_S, OUT, RRV_SCENES, MACHINE, CUDA_HOME)
+    gpu-kit/run [--dry-run] [--out DIR] [--budget S] [--preset paper|ci]
+                (env: BUDGET_S, RRV_SCENES, MACHINE, CUDA_HOME)
+
+On a lent machine whose output folder comes back with few files, run gpu-kit/device-run instead: it runs this with
+its work files elsewhere and leaves only what comes back (gpukit/device_run.py).
 
 From wherever the kit lies, with the node's environment, to which it adds (LD_LIBRARY_PATH keeps the node's
 folders, after the kit's lib/): python3, the node's CUDA driver, and cuBLAS 13, cuSPARSE 12 and nvJitLink 13
 from the node (the loader's search, then the CUDA toolkit's lib64 or the nvidia CUDA Python packages). Its first
 lines say what it found: the driver (libcuda.so.1, from where), each library (what is missing, named), the GPU and
-compute-sanitizer. Then the form factors of scenes 1-4 on the node's CPUs, and the steps below, most important
-first, each with its estimated seconds (gpukit/plan.py); the plan fits 80% of the budget (default 420 s) and the
-driver, measuring the steps against their estimates as they run, drops the last ones, by name, when it runs late:
-  bandwidth    the GPU's triad and read-only sweep (bin/stream --device gpu): the limit every GPU number is judged by
-  correctness  the GPU unit tests; every GPU backend against float64 on scenes 1-2 (the program's own check);
-               Poisson CG against the CPU at N = 256 and 1024, the GPU multigrid against serial's (iterations within
-               1, the error to 4 digits) and its symmetry (--check-symmetry)
-  sanitizer    compute-sanitizer memcheck on every CUDA backend of both programs and the multigrid at a small N
-  cases        the GPU cases of the paper preset's case lists (Tables 4.1, 4.3, 4.4, 4.5), read from the lists;
-               Table 4.3 again with RRV's 32 fixed steps, and scene 4's with float16 F
-  if early     Table 4.5 again with --overlap; racecheck and initcheck on the kernels that use shared memory
+compute-sanitizer. Then the plan (gpukit/plan.py), in the order that keeps what matters when time runs short:
+  probe      the GPU's triad and read-only sweep (bin/stream --device gpu): the limit every GPU number is judged by
+  inputs     the form factors of the preset's scenes on the node's CPUs
+  tables     every GPU cell of Tables 4.1 (N = 8192's plain CG aside), 4.3, 4.4, 4.5 once, read from the case lists,
+             with the OpenMP cells on the node's cores that the GPU claims compare them with
+  claims     rounds 2-6 of each claim's cells, side by side, their order alternating (paired, interleaved runs)
+  targets    Poisson plain CG at N = 8192 on cuda, scene 4's 32 Jacobi steps with float32 and float16 F
+  large      Table 4.1's N = 8192 plain CG on cuBLAS 1 and 2
+  memcheck   compute-sanitizer memcheck on every CUDA backend of both programs
+  extras     the GPU unit tests, every GPU configuration against float64, the other 32-step runs; if early,
+             Table 4.5 with --overlap, racecheck and initcheck
+each with its estimated seconds. The plan fits 80% of the budget (default 360 s); the driver, measuring the steps
+against their estimates as they run, defers the last ones when it runs late and runs them after all if time is left.
+Beside every recorded run it samples the GPU (clocks, temperature, power, throttle reasons: gpukit/gpu_state.py)
+before and after, into the experiment's state file; a run during a thermal or hardware slowdown is flagged disturbed.
 A step the node cannot run is skipped with the reason: the sanitizer's where it refuses the device (as under
 gVisor), the cuBLAS (cuSPARSE) ones without cuBLAS (cuSPARSE). A skip is never counted as a failure.
-Everything is written under the output folder (default ./gpu-kit-out): records in results/<label>/<experiment>/
-paper.jsonl, results/<label>/machine.json (common/machine_label.py --json), logs/, summary.md (every step with its
-estimate and its time), and one archive gpu-kit-<label>.tar.gz (<= 16 MiB) for `make gpu-import ARCHIVE=...` at
-home. The summary and the archive are written whatever fails, the driver's own death included.
+Everything is written under the output folder (default ./gpu-kit-out; never $OUT by itself): records in
+results/<label>/<experiment>/<preset>.jsonl with their state files, results/<label>/machine.json
+(common/machine_label.py --json), logs/, summary.md (every step with its estimate and its time), and one archive
+gpu-kit-<label>.tar.gz (<= 16 MiB) for `make gpu-import ARCHIVE=...` at home. The summary and the archive are
+written whatever fails, the driver's own death and SIGTERM included.
 
 Exit status: 0 every step ran and passed; 1 a step failed or disagreed (or the driver itself failed); 3 no GPU at
 all (after the CPU step that needs none: the form factors of scene 1); 6 none failed, but some were skipped (for
@@ -40,9 +49,10 @@ from pathlib import Path
 
 KIT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(KIT))
-from gpukit import cases, node, plan, probe, summary  # noqa: E402
+from gpukit import cases, gpu_state, node, plan, probe, summary  # noqa: E402
+from gpukit.children import run_group, signal_name  # noqa: E402
 from gpukit.archive import pack_archive  # noqa: E402,F401  (the tests pack fake outputs through it)
-from gpukit.plan import PRESET, RESERVE_S, SLACK, Outcome  # noqa: E402
+from gpukit.plan import BUDGET_S, PRESETS, RESERVE_S, SLACK, Outcome  # noqa: E402
 from common import machine_label  # noqa: E402
 
 from gpukit.node import EXIT_FAILED, EXIT_NO_GPU, EXIT_OK, EXIT_SKIPPED, EXIT_USAGE  # noqa: E402
@@ -58,12 +68,15 @@ class Driver:
         self.out = Path(a.out).resolve()
         self.t0 = time.monotonic()
         self.budget = a.budget
+        self.preset = getattr(a, "preset", "paper")
+        self.kit = KIT
         self.outcomes = []
         self.missing = {}  # capability -> why the node lacks it (probe.py)
         self.found = []  # the probes' lines, for the summary
         self.died = None
         self.label = None
         self.env = None
+        self.nvml = None  # gpu_state.Nvml once the GPU is found
 
     @property
     def done(self):
@@ -91,11 +104,24 @@ class Driver:
         return Path(os.environ.get("RRV_SCENES") or KIT / "scenes" / "rrv").resolve()
 
     def tokens(self):
-        return {"FF_DIR": self.out / "ff", "RRV_SCENES": self.rrv(), "PRESET": PRESET,
+        return {"FF_DIR": self.out / "ff", "RRV_SCENES": self.rrv(), "PRESET": self.preset,
                 "RESULTS": self.out / "results" / (self.label or "unknown")}
 
     def records(self, experiment):
-        return self.out / "results" / self.label / experiment / f"{PRESET}.jsonl"
+        return self.out / "results" / self.label / experiment / f"{self.preset}.jsonl"
+
+    def read_records(self, experiment):
+        """The records of one experiment made so far in this output folder (whole JSON lines only)."""
+        f = self.records(experiment)
+        out = []
+        for line in (f.read_text(errors="replace").splitlines() if f.exists() else []):
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue
+            if isinstance(rec, dict):
+                out.append(rec)
+        return out
 
     def child_env(self, extra_dirs=(), first_dirs=()):
         """The node's environment, added to: on LD_LIBRARY_PATH the kit's lib/, then `first_dirs` (the kit's
@@ -112,7 +138,7 @@ class Driver:
         return env
 
     def plan(self):
-        return plan.build(KIT, self.tokens(), probe.sanitizer_path(os.environ))
+        return plan.build(KIT, self.tokens(), probe.sanitizer_path(os.environ), self.preset, self.budget)
 
     # --- running ---
     def run_cmd(self, cmd, log):
@@ -123,23 +149,28 @@ class Driver:
             argv.append("--quiet")
             if cmd.json_out:
                 argv.append("--json")
-        if cmd.experiment:  # only GPU runs are recorded: every record of the archive carries its GPU
+        if cmd.experiment:  # recorded: the case's id and its repeat, as slurm/run-case gives them
             rec = self.records(cmd.experiment)
             rec.parent.mkdir(parents=True, exist_ok=True)
             argv += ["--record", str(rec)]
-            env.update(HPCGI_EXPERIMENT=cmd.experiment, HPCGI_PRESET=PRESET, HPCGI_CASE=cmd.case_id or "",
-                       HPCGI_REPEAT="0")
+            env.update(HPCGI_EXPERIMENT=cmd.experiment, HPCGI_PRESET=self.preset, HPCGI_CASE=cmd.case_id or "",
+                       HPCGI_REPEAT=str(cmd.repeat), HPCGI_MACHINE_ID=os.environ.get("HPCGI_MACHINE_ID", ""),
+                       HPCGI_MACHINE=self.label)
         limit = max(1.0, self.left() - RESERVE_S)
+        before = self.gpu_sample() if cmd.experiment else None
+        t = time.monotonic()
         with open(log, "a") as f:
             f.write("$ " + " ".join(argv) + "\n")
             f.flush()
             try:
-                p = run_group(argv, env, limit)
+                p = run_group(argv, env, limit, KIT)
             except subprocess.TimeoutExpired:
                 return f"ran past what was left of the budget ({limit:.0f} s): stopped", None
             except OSError as e:
                 return f"cannot run {argv[0]}: {e}", None
             f.write(p.stdout)
+        if cmd.experiment:
+            self.write_state(cmd, before, self.gpu_sample(), time.monotonic() - t, p.returncode)
         last = (p.stdout.strip().splitlines() or [""])[-1][:300]
         if p.returncode < 0:
             return f"killed by {signal_name(-p.returncode)}: {last}", None
@@ -157,6 +188,25 @@ class Driver:
         if cmd.check:
             return ("printed no record", None) if rec is None else (cmd.check(rec), rec)
         return None, rec
+
+    def gpu_sample(self):
+        try:
+            return self.nvml.sample() if self.nvml else None
+        except (OSError, ValueError) as e:  # NVML gone mid-run: said in the state line, never fatal
+            return {"error": f"{type(e).__name__}: {e}"}
+
+    def write_state(self, cmd, before, after, wall_s, status):
+        """One line of the experiment's state file for a recorded run, as slurm/run-case writes them (case, repeat,
+        utc, wall_s, exit_status, disturbed, reason), with the GPU's state before and after it and the node's load."""
+        bad, why = gpu_state.disturbed(before, after)
+        line = {"case": cmd.case_id, "repeat": cmd.repeat, "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                "wall_s": round(wall_s, 6), "exit_status": status, "disturbed": bad, "reason": why,
+                "load_after": round(os.getloadavg()[0], 2), "gpu_before": before, "gpu_after": after}
+        if self.nvml is None:
+            line["gpu_state"] = gpu_state.Nvml.why or "not sampled"
+        state = self.records(cmd.experiment).with_suffix(".state.jsonl")
+        with open(state, "a") as f:
+            f.write(json.dumps(line, sort_keys=True) + "\n")
 
     def note(self, step, result, measured_s=None, why=""):
         self.outcomes.append(Outcome(step.name, step.group, step.estimate_s, result, measured_s, why))
@@ -183,10 +233,11 @@ class Driver:
         if product and Path(product).is_file():  # a second run into the same folder: the solves check its header
             self.note(step, "ok", 0.0, f"{Path(product).name} already made")
             return True
+        commands = step.prepare(self) if step.prepare else step.commands
         t = time.monotonic()
         log = self.out / "logs" / f"{step.group}.log"
         bad, recs = [], []
-        for cmd in step.commands:
+        for cmd in commands:
             why, rec = self.run_cmd(cmd, log)
             recs.append(rec)
             if why:
@@ -208,52 +259,33 @@ class Driver:
         est = sum(o.estimate_s for o in ran)
         return 1.0 if est < 10 else max(0.5, sum(o.measured_s for o in ran) / est)
 
-    def drop_late(self, queue):
-        """When the steps still to run would end past the budget at the measured pace, the last ones are dropped,
-        by name, until the rest fit."""
+    def defer_late(self, queue, deferred):
+        """When the steps still to run would end past the budget at the measured pace, the last ones are set aside,
+        by name, until the rest fit; they run after all, in order, if time is left at the end."""
         late = []
         while len(queue) > 1 and (time.monotonic() - self.t0 + self.pace() * sum(s.estimate_s for s in queue)
                                   > self.budget - RESERVE_S):
             late.append(queue.pop())
         if late:
-            self.say(f"running late (pace {self.pace():.2f} of the estimates): dropping the last {len(late)} steps: "
-                     + "; ".join(s.name for s in reversed(late)))
-            for s in reversed(late):
-                self.outcomes.append(Outcome(s.name, s.group, s.estimate_s, "skipped", why=(
-                    f"dropped: running late at {self.pace():.2f} times the estimates")))
+            self.say(f"running late (pace {self.pace():.2f} of the estimates): deferring the last {len(late)} steps "
+                     f"to the end: " + "; ".join(s.name for s in reversed(late)))
+            deferred[:0] = reversed(late)
 
     def run_all(self, steps):
         queue = [s for s in steps if not s.optional]
         optional = [s for s in steps if s.optional]
+        deferred = []
         while queue:
             self.run_step(queue.pop(0))
-            self.drop_late(queue)
+            self.defer_late(queue, deferred)
+        for s in deferred:
+            if self.skip_reason(s) and not any(n in self.missing for n in s.needs):
+                self.note(s, "skipped", why=f"deferred (running late at {self.pace():.2f} times the estimates), "
+                                            f"and no time was left: {self.skip_reason(s)}")
+            else:
+                self.run_step(s)
         for s in optional:
             self.run_step(s)
-
-
-def signal_name(n):
-    try:
-        return signal.Signals(n).name
-    except ValueError:
-        return f"signal {n}"
-
-
-def run_group(argv, env, limit):
-    """subprocess.run in a process group of its own, the whole group killed at the time limit (compute-sanitizer
-    runs the program as its child, which a plain timeout would leave running)."""
-    p = subprocess.Popen(argv, cwd=KIT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                         errors="replace", start_new_session=True)
-    try:
-        out, _ = p.communicate(timeout=limit)
-    except BaseException:
-        try:
-            os.killpg(p.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        p.communicate()
-        raise
-    return subprocess.CompletedProcess(argv, p.returncode, out)
 
 
 def main(argv=None):
@@ -261,21 +293,30 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dry-run", action="store_true", help="print the plan (steps, estimated seconds) and exit")
     ap.add_argument("--json", action="store_true", help="with --dry-run: the plan as JSON")
-    ap.add_argument("--out", default=os.environ.get("OUT", "gpu-kit-out"), help="output folder (default ./gpu-kit-out)")
-    ap.add_argument("--budget", type=float, default=None, help="seconds for the whole run (default BUDGET_S or 420)")
+    ap.add_argument("--out", default="gpu-kit-out", help="output folder (default ./gpu-kit-out)")
+    ap.add_argument("--budget", type=float, default=None,
+                    help=f"seconds for the whole run (default BUDGET_S or {BUDGET_S})")
+    ap.add_argument("--preset", choices=PRESETS, default="paper",
+                    help="the case lists: paper (the report's sizes, default) or ci (tiny: a smoke run in seconds)")
     a = ap.parse_args(argv)
     if a.budget is None:
         try:
-            a.budget = float(os.environ.get("BUDGET_S", "420"))
+            a.budget = float(os.environ.get("BUDGET_S", str(BUDGET_S)))
         except ValueError:
             print(f"gpu-kit/run: BUDGET_S={os.environ['BUDGET_S']!r} is no number of seconds", file=sys.stderr)
             return EXIT_USAGE
-    if not a.budget * (1 - SLACK) > RESERVE_S:
-        print(f"gpu-kit/run: the budget must exceed {RESERVE_S / (1 - SLACK):g} s, got {a.budget:g}", file=sys.stderr)
+    if not a.budget * (1 - SLACK) > RESERVE_S or a.budget != a.budget or a.budget == float("inf"):
+        print(f"gpu-kit/run: the budget must be a finite number of seconds above {RESERVE_S / (1 - SLACK):g}, got "
+              f"{a.budget:g}", file=sys.stderr)
+        return EXIT_USAGE
+    if not (KIT / "cases" / a.preset).is_dir():
+        print(f"gpu-kit/run: this kit carries no case lists of preset {a.preset} ({KIT / 'cases'})", file=sys.stderr)
         return EXIT_USAGE
     d = Driver(a)
     # The node's id (common/machine_label.py) is kept in the output folder, as everything the kit writes: the same
     # --out gives the same label again; the programs' records carry it (HPCGI_MACHINE_ID in their environment).
+    if a.dry_run and not os.environ.get("HPCGI_MACHINE_ID"):
+        os.environ["HPCGI_MACHINE_ID"] = "0" * 12  # a dry run writes nothing, not even the node's id
     if not os.environ.get("HPCGI_MACHINE_ID") and not os.environ.get("HPCGI_STATE_DIR"):
         os.environ["HPCGI_STATE_DIR"] = str(d.out / "state")
     try:
@@ -287,11 +328,14 @@ def main(argv=None):
     steps = d.plan()
     if a.dry_run:
         if a.json:
+            fit = plan.fitting(steps, a.budget)
             gpu = [{"experiment": c.experiment, "index": c.index, "line": c.line}
-                   for c in cases.gpu_cases(KIT / "cases" / PRESET)]
-            print(json.dumps({"budget_s": a.budget, "reserve_s": RESERVE_S, "slack": SLACK, "gpu_cases": gpu,
-                              "steps": [{"name": s.name, "group": s.group, "estimate_s": s.estimate_s,
-                                         "optional": s.optional, "needs": sorted(s.needs)} for s in steps]}))
+                   for c in cases.gpu_cases(KIT / "cases" / a.preset, a.preset)]
+            print(json.dumps({"budget_s": a.budget, "reserve_s": RESERVE_S, "slack": SLACK, "preset": a.preset,
+                              "phases": list(plan.PHASES), "gpu_cases": gpu,
+                              "steps": [{"name": s.name, "group": s.group, "phase": s.phase,
+                                         "estimate_s": s.estimate_s, "optional": s.optional, "fit": fit[s.name],
+                                         "needs": sorted(s.needs)} for s in steps]}))
         else:
             plan.print_plan(steps, a.budget)
         return EXIT_OK
@@ -306,7 +350,8 @@ def run(d, steps):
     def stop(signum, _frame):
         raise Stopped(f"told to stop by {signal_name(signum)}")
 
-    old = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGHUP)}
+    # a signal ignored at the start (nohup's SIGHUP) stays ignored
+    old = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGHUP) if signal.getsignal(s) != signal.SIG_IGN}
     status = None
     try:
         status = node.go(d, steps, KIT)

@@ -7,7 +7,9 @@ being the GPU node's own (its results/<label>/machine.json).
 All or nothing, and each record once:
 - The whole archive is checked before a byte is written (gpukit/archive_check.py): its size, its members and what
   it unpacks to within fixed limits, read to its end (a truncated or damaged one is refused), one machine's records,
-  every record valid against common/record.schema.json and carrying the GPU it ran on (backend_info.gpu).
+  every record valid against common/record.schema.json and made by the node of its machine.json (HPCGI_MACHINE_ID),
+  a GPU run naming the node's GPU (backend_info.gpu; the OpenMP runs beside them name none), the state files' lines
+  (the GPU's clocks, temperature and throttle reasons beside each run) JSON objects naming their case and repeat.
 - A machine's folder is that machine's only: the archive's machine.json carries the node's machine_id, and an
   existing results/<label>/ whose machine.json carries no machine_id, or another, is refused (another machine's
   records, the reference machine's say, are never added to).
@@ -85,8 +87,9 @@ def existing(target):
 
 
 def changes(plan, dest, dest_exists):
-    """The folders to make, the files to write [(path, bytes)], how many records are new, how many were there."""
-    folders, files, added, kept = [dest], [], 0, 0
+    """The folders to make, the files to write [(path, bytes)], how many records are new, how many were there, how
+    many state lines are new (a state file's lines are added as a records file's are: each once)."""
+    folders, files, added, kept, states = [dest], [], 0, 0, 0
     for rel, recs in plan.records.items():
         target = dest / rel
         st = _lstat(target.parent)
@@ -95,13 +98,16 @@ def changes(plan, dest, dest_exists):
         folders.append(target.parent)
         keys, old = existing(target)
         new = [line for h, line in recs if h not in keys]
-        kept += len(recs) - len(new)
+        if rel.endswith(".state.jsonl"):
+            states += len(new)
+        else:
+            kept += len(recs) - len(new)
+            added += len(new)
         if new:
             files.append((target, old + "".join(line + "\n" for line in new).encode()))
-            added += len(new)
     if not dest_exists:
         files.append((dest / "machine.json", plan.machine))
-    return folders, files, added, kept
+    return folders, files, added, kept, states
 
 
 def _write_synced(path, data):
@@ -165,13 +171,14 @@ def import_archive(path, results):
     fd = locked(results)
     try:
         dest_exists = check_owner(dest, plan)
-        folders, files, added, kept = changes(plan, dest, dest_exists)
+        folders, files, added, kept, states = changes(plan, dest, dest_exists)
         commit(folders, files)
     finally:
         os.close(fd)
     note = f"; {dup} duplicates in the archive written once" if dup else ""
-    return (f"gpu-import: {added} records into {shown(dest)}/ ({len(plan.records)} files; {kept} already there"
-            f"{note})")
+    files = sum(1 for rel in plan.records if not rel.endswith(".state.jsonl"))
+    return (f"gpu-import: {added} records into {shown(dest)}/ ({files} files; {kept} already there{note}; "
+            f"{states} state lines: the GPU's state beside each run)")
 
 
 def main(argv=None):

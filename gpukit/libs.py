@@ -27,6 +27,9 @@ def allowed_outside(name):
 
 def ldd(path, env=None):
     """[(name, resolved path or None)] of every library `path` needs (the closure, as ldd lists it)."""
+    with open(path, "rb") as f:
+        if f.read(2) == b"#!":  # a script: its interpreter's libraries are the node's
+            return []
     out = subprocess.run(["ldd", str(path)], capture_output=True, text=True, env=env, timeout=60)
     if out.returncode != 0:
         raise RuntimeError(f"ldd {path} failed: {(out.stderr or out.stdout).strip()}")

@@ -5,7 +5,7 @@ import shutil
 import subprocess
 import sys
 
-from gpukit import libs, plan, probe
+from gpukit import gpu_state, libs, plan, probe
 from gpukit.plan import Outcome
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_NO_GPU, EXIT_SKIPPED = 0, 1, 2, 3, 6
@@ -27,19 +27,26 @@ def go(d, steps, kit):
     if state == "broken":
         d.outcomes.append(Outcome("GPU probe", "probe", 0, "FAILED", why=why))
     if state is None:
+        d.nvml = gpu_state.Nvml.open()
+        sample = d.gpu_sample()
+        line = (f"GPU state (NVML, sampled before and after every recorded run): {gpu_state.show(sample)}" if d.nvml
+                else f"GPU state: not sampled: {gpu_state.Nvml.why}")
+        d.found.append(line)
+        d.say(line)
         usable, line = probe.sanitizer(probe.sanitizer_path(d.env), kit / "bin" / "poisson", d.env, kit)
         d.found.append(f"compute-sanitizer: {line}")
         d.say(f"compute-sanitizer: {line}")
         if not usable:
             d.missing["sanitizer"] = line
     plan.print_plan(steps, d.budget)
-    ff = [s for s in steps if s.group == "formfactors"]
-    d.run_step(ff[0])  # scene 1: needs no GPU
+    first = next((s for s in steps if s.group == "formfactors"), None)  # scene 1's: needs no GPU
+    if first is not None:
+        d.run_step(first)
     if state == "absent":
         print(f"gpu-kit: no GPU: {why} ({'driver: ' + line if not has_driver else 'the driver loads'}); ran only "
               "what needs none (the form factors of scene 1)", file=sys.stderr)
         return EXIT_NO_GPU
-    d.run_all(ff[1:] + [s for s in steps if s.group != "formfactors"])
+    d.run_all([s for s in steps if s is not first])  # the plan's order: the GPU's probe first
     return None
 
 

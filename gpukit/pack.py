@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Packs the GPU kit (make gpu-kit): the binaries built for the kit, the shared libraries they need that a bare GPU
-node lacks, the scenes, the paper preset's case lists, the driver and `run`, the GPU tests and the analysis package,
-into one relocatable folder of at most 60 MiB.
+node lacks, the scenes, the paper and ci presets' case lists, the driver with `run` and `device-run`, the GPU tests and
+the analysis package, into one relocatable folder of at most 60 MiB; then prints the call that runs it on a lent GPU
+machine (what to carry, the command, its timeout_s).
 
     gpukit/pack.py --build build/gpu-kit-obj --kit build/gpu-kit --cuda-home /usr/local/cuda --archs 90
 
@@ -34,7 +35,8 @@ RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
 TESTS = ("tests/conftest.py", "tests/integration/test_radiosity_gpu.py")
 DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/checks.py", "gpukit/plan.py",
           "gpukit/probe.py", "gpukit/node.py", "gpukit/archive.py", "gpukit/driver.py", "gpukit/summary.py",
-          "common/machine_label.py", "common/backend_facts.py")
+          "gpukit/gpu_state.py", "gpukit/device_run.py", "gpukit/plan_checks.py", "gpukit/children.py", "common/machine_label.py", "common/backend_facts.py")
+PRESETS = ("paper", "ci")  # ci: the tiny cases (gpu-kit/run --preset ci: a smoke run in seconds)
 
 
 class PackError(Exception):
@@ -78,8 +80,42 @@ def pack(a):
         shutil.rmtree(final)
     kit.rename(final)
     total = json.loads((final / MARKER).read_text())["bytes"]
-    print(f"gpu-kit: {final} ({total / 2**20:.1f} MiB of {LIMIT >> 20}); on the GPU node: {final.name}/run --dry-run, "
+    print(f"gpu-kit: {final} ({total / 2**20:.1f} MiB of {LIMIT >> 20}); on a GPU node: {final.name}/run --dry-run, "
           f"then {final.name}/run")
+    print_device_call(final, total)
+
+
+DEVICE_TRAVELS = 64 << 20  # what travels to a lent machine: the working tree and the carried paths together
+DEVICE_TIMEOUT_S = 420  # the call's limit: the kit's 6 minutes and device-run's margin, so a second call still fits
+
+
+def tree_bytes():
+    """Bytes of the working tree that travels to a lent machine: tracked files and untracked ones git does not
+    ignore."""
+    p = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
+                       capture_output=True)
+    names = {n for n in p.stdout.decode(errors="replace").split("\0") if n}
+    return sum((ROOT / n).stat().st_size for n in names if (ROOT / n).is_file() and not (ROOT / n).is_symlink())
+
+
+def print_device_call(kit, kit_bytes):
+    """The exact call for a lent GPU machine: carry the kit (its path in the repository), run device-run with the
+    call's limit, import what comes back."""
+    try:
+        rel = kit.resolve().relative_to(ROOT)
+    except ValueError:
+        print(f"gpu-kit: {kit} is outside the repository, so it cannot be carried to a lent machine (carry takes "
+              f"paths inside the repository): make gpu-kit KIT=build/gpu-kit")
+        return
+    tree = tree_bytes()
+    both = tree + kit_bytes
+    print("gpu-kit: the call for a lent GPU machine (the device tool's run), from the repository's root:")
+    print(f'  carry:     ["{rel}"]   ({kit_bytes / 2**20:.1f} MiB; with the working tree\'s {tree / 2**20:.1f} MiB '
+          f"that travels too: {both / 2**20:.1f} MiB of the {DEVICE_TRAVELS >> 20} MiB allowed"
+          f"{'' if both <= DEVICE_TRAVELS else ': TOO MUCH, it will be refused'})")
+    print(f"  command:   {rel}/device-run --limit {DEVICE_TIMEOUT_S}")
+    print(f"  timeout_s: {DEVICE_TIMEOUT_S}")
+    print("  then here: make gpu-import ARCHIVE=<the gpu-kit-*.tar.gz among the files that come back>")
 
 
 def fill(a, kit):
@@ -113,8 +149,9 @@ def fill(a, kit):
     rrv = Path(a.rrv_scenes)
     for f in RRV_FILES:  # RRV's scenes are GPL-3.0-or-later: their COPYING travels beside them
         copy(rrv / f, kit / "scenes" / "rrv" / f)
-    for f in sorted((ROOT / "slurm" / "cases" / "paper").glob("*.txt")):
-        copy(f, kit / "cases" / "paper" / f.name)
+    for preset in PRESETS:
+        for f in sorted((ROOT / "slurm" / "cases" / preset).glob("*.txt")):
+            copy(f, kit / "cases" / preset / f.name)
     for f in sorted((ROOT / "results" / "paper").glob("*.csv")):
         copy(f, kit / "paper" / f.name)
     for f in DRIVER + TESTS:
@@ -126,8 +163,9 @@ def fill(a, kit):
     # pytest in the kit: no cache folder inside the kit, temporary files under the output folder (run passes
     # --basetemp), the reasons of skips printed.
     (kit / "pytest.ini").write_text("[pytest]\ntestpaths = tests\npythonpath = .\naddopts = -rs -p no:cacheprovider\n")
-    copy(ROOT / "gpukit" / "run", kit / "run")
-    os.chmod(kit / "run", 0o755)
+    for script in ("run", "device-run"):
+        copy(ROOT / "gpukit" / script, kit / script)
+        os.chmod(kit / script, 0o755)
 
     git = lambda *args: subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
     nvcc = subprocess.run([os.path.join(a.cuda_home, "bin", "nvcc"), "--version"], capture_output=True, text=True)
@@ -139,7 +177,7 @@ def fill(a, kit):
     manifest = {
         "kit": "hpcgi gpu-kit/1",
         "git_commit": git("rev-parse", "HEAD"),
-        "git_dirty": git("status", "--porcelain", "--untracked-files=no") != "",
+        "git_dirty": dirty(),
         "built_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "cuda_archs": a.archs.split(),
         "nvcc": nvcc.stdout.strip().splitlines()[-1] if nvcc.returncode == 0 else "unknown",
@@ -154,6 +192,15 @@ def fill(a, kit):
         raise PackError(f"the kit would be {total / 2**20:.1f} MiB, over its limit of {LIMIT >> 20} MiB")
     (kit / MARKER).write_text(json.dumps(manifest, indent=1) + "\n")
     print(f"gpu-kit: {len(files)} files; libraries carried: {', '.join(carried) or 'none'}")
+
+
+def dirty():
+    """The Makefile's rule for the binaries (GIT_CHANGES): a tracked file that differs from HEAD or an untracked one
+    that is not ignored, results/ and report/ aside; outside git, dirty."""
+    head = subprocess.run(["git", "rev-parse", "-q", "--verify", "HEAD"], cwd=ROOT, capture_output=True)
+    st = subprocess.run(["git", "status", "--porcelain", "--", ".", ":(exclude)results", ":(exclude)report"], cwd=ROOT,
+                        capture_output=True, text=True)
+    return head.returncode != 0 or st.returncode != 0 or st.stdout.strip() != ""
 
 
 def dynamic_symbols(path, defined):

@@ -7,10 +7,13 @@ import json
 from pathlib import Path
 
 
-def load(results, garbled=None):
-    """{experiment: [record]}; a line that is no JSON object is left out and named in `garbled` (a list)."""
+def load(results, garbled=None, state=False):
+    """{experiment: [record]} (or, with state, {experiment: [state line]}: the state files beside the records); a
+    line that is no JSON object is left out and named in `garbled` (a list)."""
     recs = {}
     for f in sorted(Path(results).glob("*/*.jsonl")):
+        if f.name.endswith(".state.jsonl") != state:
+            continue
         recs[f.parent.name] = []
         for k, line in enumerate(f.read_text(errors="replace").splitlines(), 1):
             try:
@@ -51,6 +54,31 @@ def fmt(x, spec=".4g"):
     return "-" if x is None else format(x, spec)
 
 
+def median(xs):
+    xs = sorted(x for x in xs if isinstance(x, (int, float)))
+    n = len(xs)
+    return None if n == 0 else xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
+
+
+def per_case(rows):
+    """One row per case (HPCGI_CASE) in the order first seen: a representative record with the medians of its runs
+    that count ("times_s.solve" and "perf.bandwidth_GBps" replaced), their count n, and whether every run counted."""
+    groups = {}
+    for r in rows:
+        case = ((r.get("provenance") or {}).get("env") or {}).get("HPCGI_CASE")
+        groups.setdefault((case, json.dumps(r.get("params"), sort_keys=True)), []).append(r)
+    out = []
+    for runs in groups.values():
+        good = [r for r in runs if counts(r)]
+        rep = dict(good[-1] if good else runs[-1])
+        rep["times_s"] = dict(rep.get("times_s") or {}, solve=median([(r.get("times_s") or {}).get("solve")
+                                                                       for r in good]))
+        rep["perf"] = dict(rep.get("perf") or {}, bandwidth_GBps=median([(r.get("perf") or {}).get("bandwidth_GBps")
+                                                                         for r in good]))
+        out.append((rep, len(good), len(good) == len(runs)))
+    return out
+
+
 def write(results, paper_dir, driver=None):
     garbled = []
     recs = load(results, garbled)
@@ -73,6 +101,7 @@ def write(results, paper_dir, driver=None):
         bw = r.get("perf", {}).get("bandwidth_GBps")
         return None if bw is None or not triad else bw / triad
 
+    out += gpu_state_lines(load(results, state=True))
     out += table41_lines(recs, paper_dir, frac)
     # Tables 4.3, 4.4 and their 32-step runs
     for exp, title, col in (("table43", "Table 4.3 (AOS, Jacobi to 1e-6)", "cuda"),
@@ -82,16 +111,16 @@ def write(results, paper_dir, driver=None):
         if not rows:
             continue
         ref = {int(row["scene"]): row for row in paper(paper_dir, exp.split("-")[0])}
-        out += [f"## {title}", "", "| scene | backend | steps | solve s | GB/s | of triad | K20 s (report) | counts |",
-                "|---|---|---|---|---|---|---|---|"]
-        for r in rows:
+        out += [f"## {title}", "", "| scene | backend | steps | median solve s | n | GB/s | of triad | K20 s (report) | "
+                "all count |", "|---|---|---|---|---|---|---|---|---|"]
+        for r, n, every in per_case(rows):
             p = r["params"]
             k = scene_no(p.get("scene"))
             be = p["backend"] + (" --fused" if p.get("fused") else "")
-            k20s = ref.get(k, {}).get(col) if col else None
-            out.append(f"| {k} | {md(be)} | {r['result'].get('iterations')} | {fmt(r['times_s'].get('solve'))} | "
+            k20s = ref.get(k, {}).get(col) if col and p["backend"] in ("cuda", "cublas") else None
+            out.append(f"| {k} | {md(be)} | {r['result'].get('iterations')} | {fmt(r['times_s'].get('solve'))} | {n} | "
                        f"{fmt(r['perf'].get('bandwidth_GBps'), '.0f')} | {fmt(frac(r), '.0%')} | {md(k20s or '-')} | "
-                       f"{'yes' if counts(r) else 'NO'} |")
+                       f"{'yes' if every else 'NO'} |")
         out.append("")
     # Table 4.5
     k20 = {float(row["distribution"]): row["runtime_s"] for row in paper(paper_dir, "table45")}
@@ -162,6 +191,30 @@ def speed_targets(recs, frac):
     return out + [""]
 
 
+def gpu_state_lines(states):
+    """The GPU's state beside the recorded runs (gpukit/gpu_state.py): its SM clock, temperature and power before and
+    after them, the clock-limiting reasons seen, and the runs flagged disturbed."""
+    lines = [s for v in states.values() for s in v]
+    samples = [(w, s[w]) for s in lines for w in ("gpu_before", "gpu_after") if isinstance(s.get(w), dict)]
+    out = ["## The GPU beside the runs", ""]
+    if not samples:
+        why = next((s.get("gpu_state") for s in lines if s.get("gpu_state")), None)
+        return out + [f"Not sampled{': ' + md(why) if why else ''}.", ""]
+    span = lambda key, when: [v[key] for w, v in samples if w == when and isinstance(v.get(key), (int, float))]
+    rng = lambda xs: f"{min(xs):.0f}-{max(xs):.0f}" if xs else "-"
+    out += ["| | SM clock MHz | memory clock MHz | temperature C | power W |", "|---|---|---|---|---|"]
+    for when in ("gpu_before", "gpu_after"):
+        out.append(f"| {when.split('_')[1]} the runs | {rng(span('sm_MHz', when))} | {rng(span('mem_MHz', when))} | "
+                   f"{rng(span('temperature_C', when))} | {rng(span('power_W', when))} |")
+    seen = sorted({v.get("reasons_text") for _, v in samples if v.get("reasons_text")})
+    bad = [s for s in lines if s.get("disturbed")]
+    out += ["", f"- {len(lines)} runs sampled before and after; clock reasons seen: {md(', '.join(seen) or 'none')}",
+            f"- {len(bad)} runs flagged disturbed (a thermal or hardware slowdown, or the power brake), left out of the "
+            "tables at home" + (": " + md("; ".join(f"{s['case']} repeat {s['repeat']}: {s.get('reason')}"
+                                                    for s in bad[:10])) if bad else ""), ""]
+    return out
+
+
 def node_lines(d):
     """What the probes found, and whether the driver died."""
     out = ["What the node offered (the kit's probes):", ""] + [f"- {md(l)}" for l in d.found] + [""]
@@ -191,14 +244,15 @@ def table41_lines(recs, paper_dir, frac):
     rows = [r for r in recs.get("table41", []) if r.get("app") == "poisson"]
     if rows:
         out += ["## Table 4.1, GPU columns (Poisson CG to 1e-6; the report's K20 ran plain CG only)", "",
-                "| backend | precond | N | iterations | solve s | GB/s | of triad | K20 s (report) | K20 / ours | "
-                "counts |", "|---|---|---|---|---|---|---|---|---|---|"]
-        for r in sorted(rows, key=lambda r: (r["params"]["n"], precond(r), r["params"]["backend"])):
+                "| backend | precond | N | iterations | median solve s | n | GB/s | of triad | K20 s (report) | K20 / ours | "
+                "all count |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for r, cnt, every in sorted(per_case(rows), key=lambda x: (x[0]["params"]["n"], precond(x[0]),
+                                                                    x[0]["params"]["backend"])):
             n, be, t = r["params"]["n"], r["params"]["backend"], r["times_s"].get("solve")
             ref = k20.get(n, {}).get(be) if precond(r) == "none" else None
             ref = float(ref) if ref not in (None, "") else None
-            out.append(f"| {md(be)} | {md(precond(r))} | {n} | {r['result'].get('iterations')} | {fmt(t)} | "
+            out.append(f"| {md(be)} | {md(precond(r))} | {n} | {r['result'].get('iterations')} | {fmt(t)} | {cnt} | "
                        f"{fmt(r['perf'].get('bandwidth_GBps'), '.0f')} | {fmt(frac(r), '.0%')} | {fmt(ref)} | "
-                       f"{fmt(ref / t if ref and t else None, '.1f')} | {'yes' if counts(r) else 'NO'} |")
+                       f"{fmt(ref / t if ref and t else None, '.1f')} | {'yes' if every else 'NO'} |")
         out.append("")
     return out

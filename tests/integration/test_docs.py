@@ -16,11 +16,12 @@ ROOT = Path(__file__).resolve().parents[2]
 # Figures that are no measurement: limits, budgets and sizes that the docs state as rules, not as findings.
 ALLOWED = {
     "15 minutes",   # the quick preset's budget on 2 cores
-    "420 s",        # the GPU kit's default budget (BUDGET_S)
+    "360 s",        # the GPU kit's default budget (BUDGET_S, issue 47: 6 minutes)
+    "420 s",        # the lent machine's call for it (device-run --limit, timeout_s)
     "600 s",        # a fuzzing run's budget (FUZZ_SECONDS=600)
     "3.5 TB/s",     # the bandwidth the GPU kit assumes for its estimates (2.8 attained, since issue 32)
     "2.8 TB/s",
-    "326 s",        # the GPU kit's plan: 80% of 420 s less the 10 s kept for the summary and the archive
+    "278 s",        # the GPU kit's plan: 80% of 360 s less the 10 s kept for the summary and the archive
     "80%",          # that 80%, and the timing protocol's probe threshold (80% of the session's baseline)
     "40 GB/s",      # the scaling model's memory bandwidth per node, a parameter (docs/multinode.md)
     "16 s",         # the GPU kit's estimate of Poisson cuda at N = 8192 (derived, not measured)

@@ -66,6 +66,11 @@ def test_a_copy_run_keeps_the_nodes_ld_library_path_for_its_children(kit, tmp_pa
     assert machine["ld_library_path"].split(":")[1] == str(fake), machine["ld_library_path"]
 
 
+def first_ff(steps):
+    """Scene 1's form factors: the step that runs first, GPU or none."""
+    return next(s for s in steps if s.group == "formfactors")
+
+
 FAKE_SANITIZER = """#!/bin/sh
 # compute-sanitizer as under gVisor: it refuses the device, then the program fails at its first allocation.
 echo "========= COMPUTE-SANITIZER"
@@ -86,7 +91,7 @@ def test_a_sanitizer_that_refuses_the_device_skips_its_steps_with_the_reason_and
     steps = d.plan()
     san = [s for s in steps if s.group == "sanitizer"]
     assert len(san) >= 20 and all(s.commands[0].argv[0] == str(tools / "compute-sanitizer") for s in san)
-    status = driver.run(d, [steps[0]] + san)  # scene 1's form factors, then every sanitizer step
+    status = driver.run(d, [first_ff(steps)] + san)  # scene 1's form factors, then every sanitizer step
     assert status == 6, (status, d.failed)  # skipped, not failed
     assert not d.failed and sorted(d.skipped) == sorted(s.name for s in san)
     why = {o.name: o.why for o in d.outcomes}
@@ -106,7 +111,7 @@ def test_when_a_case_is_killed_a_record_garbled_and_the_driver_dies_the_summary_
     def boom(_rec):
         raise RuntimeError("the driver's own bug")
 
-    steps = [d.plan()[0],
+    steps = [first_ff(d.plan()),
              Step("a case killed", "table41", 1, [Cmd(["sh", "-c", "kill -9 $$"])]),
              Step("a garbled record", "table41", 1, [Cmd(["sh", "-c", garble, "sh"], "table41", "test/1",
                                                          poisson_converged, True)]),
@@ -129,23 +134,43 @@ def test_when_a_case_is_killed_a_record_garbled_and_the_driver_dies_the_summary_
     # told to stop (the call's end): SIGTERM mid-step, and the summary and the archive are still written
     driver, d = kit_driver(kit, tmp_path / "out", monkeypatch, 300.0)  # the same folder: scene 1's F is made
     term = lambda _rec: os.kill(os.getpid(), signal.SIGTERM)
-    assert driver.run(d, [d.plan()[0], Step("stopped here", "table41", 1, [
+    assert driver.run(d, [first_ff(d.plan()), Step("stopped here", "table41", 1, [
         Cmd(["sh", "-c", "echo '{}'"], None, None, term, True)])]) == 1
     text = (tmp_path / "out" / "summary.md").read_text()
     assert "The driver stopped before its end: Stopped: told to stop by SIGTERM" in text, text
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # the driver's handler is gone again
 
 
-def test_running_late_drops_the_last_steps_by_name(tmp_path, monkeypatch):
+def test_running_late_defers_the_last_steps_by_name_and_runs_them_if_time_is_left(tmp_path, monkeypatch):
     driver, _ = kit_modules()
     from gpukit.plan import Cmd, Outcome, Step
-    d = driver.Driver(driver.argparse.Namespace(out=str(tmp_path), budget=100.5, dry_run=False, json=False))
+    d = driver.Driver(driver.argparse.Namespace(out=str(tmp_path), budget=80.5, dry_run=False, json=False))
     d.outcomes = [Outcome("first", "x", 10, "ok", 30.0)]  # measured: three times its estimate
     assert d.pace() == 3.0
     queue = [Step(f"step {k}", "x", 10, [Cmd(["true"])]) for k in range(4)]
-    d.drop_late(queue)  # 90.5 s left before the reserve: 3 of the 4 fit at 3 s a second
-    assert [s.name for s in queue] == ["step 0", "step 1", "step 2"]
-    assert d.skipped == ["step 3"] and "running late at 3.00 times the estimates" in d.outcomes[-1].why
+    deferred = []
+    d.defer_late(queue, deferred)  # 70.5 s left before the reserve: 2 of the 4 fit at 3 s a second
+    assert [s.name for s in queue] == ["step 0", "step 1"] and [s.name for s in deferred] == ["step 2", "step 3"]
+    # run_all: a deferred step that still does not fit at the end is skipped with the reason, by name
+    ran = []
+    monkeypatch.setattr(d, "run_step", lambda s: ran.append(s.name))
+    monkeypatch.setattr(d, "skip_reason", lambda s: "5 s left, it needs about 30 s")
+    d.run_all([Step(f"step {k}", "x", 10, [Cmd(["true"])]) for k in range(4)])
+    assert ran == ["step 0", "step 1", "step 2"], ran
+    assert d.skipped == ["step 3"] and "deferred (running late at 3.00 times the estimates)" in d.outcomes[-1].why
+    # where the pace then leaves room, the deferred step runs after all, last
+    d2 = driver.Driver(driver.argparse.Namespace(out=str(tmp_path), budget=80.5, dry_run=False, json=False))
+    d2.outcomes = [Outcome("first", "x", 10, "ok", 30.0)]
+    ran2, said = [], []
+
+    def then_fast(step):  # step 0 at three times its estimate (step 3 is deferred), the others at a tenth
+        ran2.append(step.name)
+        d2.outcomes.append(Outcome(step.name, "x", 10, "ok", 30.0 if step.name == "step 0" else 1.0))
+    monkeypatch.setattr(d2, "run_step", then_fast)
+    monkeypatch.setattr(d2, "say", said.append)
+    d2.run_all([Step(f"step {k}", "x", 10, [Cmd(["true"])]) for k in range(4)])
+    assert any("deferring the last 1 steps to the end: step 3" in m for m in said), said
+    assert ran2 == ["step 0", "step 1", "step 2", "step 3"], ran2
 
 
 def test_without_cublas_the_kits_stand_ins_let_the_programs_start_and_only_cublas_steps_are_skipped(kit, tmp_path,

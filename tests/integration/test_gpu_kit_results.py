@@ -19,7 +19,8 @@ def fake_out(out, label, gpu="TEST fake GPU (tests/integration/test_gpu_kit.py)"
                      "backend_info": {"gpu": gpu},
                      "provenance": {"git_commit": "test", "git_dirty": False, "compiler": "test", "host": "test",
                                     "os": "test", "cpu_model": "test", "cpus_online": 1, "utc": "2026-01-01T00:00:00Z",
-                                    "env": {"HPCGI_CASE": f"test/{i}"}}}  # a valid record (tests/conftest.py)
+                                    "env": {"HPCGI_CASE": f"test/{i}", "HPCGI_MACHINE_ID": machine_id}}}
+    # a valid record (tests/conftest.py), made by the node
     d = out / "results" / label / "table41"
     d.mkdir(parents=True)
     (d / "paper.jsonl").write_text("".join(json.dumps(rec(i)) + "\n" for i in (1, 2)))
@@ -55,7 +56,7 @@ def test_gpu_import_puts_records_under_the_node_label_append_only(tmp_path):
     shutil.rmtree(results / label)  # the fake GPU's records are removed
 
 
-def test_gpu_import_refuses_a_truncated_archive_or_a_record_without_gpu_with_one_line(tmp_path):
+def test_gpu_import_refuses_a_truncated_archive_or_another_machines_record_with_one_line(tmp_path):
     archive = fake_out(tmp_path / "out", "test-fake-gpu-node")
     cut = tmp_path / "cut.tar.gz"
     cut.write_bytes(archive.read_bytes()[: archive.stat().st_size // 2])
@@ -69,18 +70,34 @@ def test_gpu_import_refuses_a_truncated_archive_or_a_record_without_gpu_with_one
     p = gpu_import(no_gpu, results)
     assert p.returncode != 0 and "names no GPU" in p.stderr, p.stderr
     assert not results.exists()
-    out3 = tmp_path / "out3"  # the machine has a GPU, one record does not: nothing is imported
-    fake_out(out3, "test-fake-gpu-node")
-    records = out3 / "results" / "test-fake-gpu-node" / "table41" / "paper.jsonl"
-    cpu = json.loads(records.read_text().splitlines()[0])
-    cpu["backend_info"] = {"threads": "16"}
-    records.write_text(records.read_text() + json.dumps(cpu) + "\n")
     sys.path.insert(0, str(ROOT))
     from gpukit import driver
-    p = gpu_import(driver.pack_archive(out3, "test-fake-gpu-node"), results)
-    assert p.returncode != 0 and "table41/paper.jsonl:3 carries no GPU" in p.stderr, p.stderr
-    assert len([l for l in p.stderr.splitlines() if not re.match(r"make(\[\d+\])?: ", l)]) == 1, p.stderr
-    assert not results.exists()
+    for what, change, why in (
+            ("another machine's record", lambda r: r["provenance"]["env"].update(HPCGI_MACHINE_ID="0123456789abcdef"),
+             "table41/paper.jsonl:3 was not made by the machine of the archive's machine.json"),
+            ("a record of another GPU", lambda r: r["backend_info"].update(gpu="NVIDIA A100-SXM4-40GB"),
+             "table41/paper.jsonl:3 names the GPU 'NVIDIA A100-SXM4-40GB', not the node's")):
+        out3 = tmp_path / what.replace(" ", "-")  # one bad record among good ones: nothing is imported
+        fake_out(out3, "test-fake-gpu-node")
+        records = out3 / "results" / "test-fake-gpu-node" / "table41" / "paper.jsonl"
+        bad = json.loads(records.read_text().splitlines()[0])
+        change(bad)
+        records.write_text(records.read_text() + json.dumps(bad) + "\n")
+        p = gpu_import(driver.pack_archive(out3, "test-fake-gpu-node"), results)
+        assert p.returncode != 0 and why in p.stderr, (what, p.stderr)
+        assert len([l for l in p.stderr.splitlines() if not re.match(r"make(\[\d+\])?: ", l)]) == 1, p.stderr
+        assert not results.exists()
+    # a CPU run the kit made on the node beside its GPU runs (an OpenMP cell a GPU claim compares with) is the
+    # node's record too: it names no GPU and is imported
+    out4 = tmp_path / "out4"
+    fake_out(out4, "test-fake-gpu-node")
+    records = out4 / "results" / "test-fake-gpu-node" / "table41" / "paper.jsonl"
+    cpu = json.loads(records.read_text().splitlines()[0])
+    cpu["backend_info"], cpu["params"]["backend"] = {"threads": "16"}, "openmp"
+    records.write_text(records.read_text() + json.dumps(cpu) + "\n")
+    p = gpu_import(driver.pack_archive(out4, "test-fake-gpu-node"), results)
+    assert p.returncode == 0 and "3 records" in p.stdout, p.stdout + p.stderr
+    shutil.rmtree(results)
 
 
 def gpu_record(path, **change):

@@ -28,7 +28,7 @@ def record(i, **over):
            "result": {"converged": True}, "times_s": {"solve": 0.1 * i}, "backend_info": {"gpu": "TEST fake GPU"},
            "provenance": {"git_commit": "test", "git_dirty": False, "compiler": "test", "host": "test", "os": "test",
                           "cpu_model": "test", "cpus_online": 1, "utc": "2026-01-01T00:00:00Z",
-                          "env": {"HPCGI_CASE": f"test/{i}"}}}
+                          "env": {"HPCGI_CASE": f"test/{i}", "HPCGI_MACHINE_ID": NODE}}}
     rec.update(over)
     return rec
 
