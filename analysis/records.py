@@ -152,7 +152,7 @@ def load(experiment, preset=None, history=False):
 
 # The exit statuses of common/errors.hpp that a record can carry: every run but 0 is no answer.
 NO_ANSWER = {3: "numerical failure", 4: "not converged within --max-iter", 5: "disagreed with its float64 check"}
-FAILED = ("breakdown", "nonfinite", "divergent", "stagnant")
+FAILED = ("breakdown", "nonfinite", "divergent", "stagnant", "unphysical")
 
 
 def exit_status(row):

@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <unistd.h>
 #include <exception>
 
@@ -65,6 +66,24 @@ void add_list_backends(CLI::App& app, std::function<std::string(bool json)> desc
       "--json: as JSON");
 }
 
+namespace {
+
+// The smallest number of one significant digit that is >= x > 0, as printed by "%.0e" (1.19e-09 -> "2e-09"), so that
+// advice names a value that is accepted.
+std::string one_digit_at_least(double x) {
+  char buf[32];
+  for (int digits = 0; digits < 3; ++digits) {  // "%.0e" rounds to nearest: step up until the printed value holds
+    double e = std::pow(10.0, std::floor(std::log10(x)));
+    double m = std::ceil(x / e) + digits;
+    if (m >= 10) m /= 10, e *= 10;
+    std::snprintf(buf, sizeof buf, "%.0e", m * e);
+    if (std::strtod(buf, nullptr) >= x) return buf;
+  }
+  return buf;
+}
+
+}  // namespace
+
 void check_tolerance(double tol, const std::string& precision) {
   // A residual's rounding can take it a little below the precision's epsilon, not a hundred times below.
   const double eps = precision == "float" ? double(FLT_EPSILON) : DBL_EPSILON, floor = eps / 100;
@@ -74,8 +93,9 @@ void check_tolerance(double tol, const std::string& precision) {
     throw UsageError(buf);
   }
   if (tol < floor) {
-    std::snprintf(buf, sizeof buf, "--tol %g is below what %s can reach (its rounding is %.2g): use --tol %.0e or more%s", tol,
-                  precision.c_str(), eps, floor, precision == "float" ? ", or --precision double" : "");
+    std::snprintf(buf, sizeof buf, "--tol %g is below what %s can reach (its rounding is %.2g): use --tol %s or more%s", tol,
+                  precision.c_str(), eps, one_digit_at_least(floor).c_str(),
+                  precision == "float" ? ", or --precision double" : "");
     throw UsageError(buf);
   }
 }

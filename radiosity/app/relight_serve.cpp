@@ -10,6 +10,7 @@
 #include "radiosity/app/relight_phases.hpp"
 #include "radiosity/render/png_writer.hpp"
 #include "radiosity/render/render.hpp"
+#include "radiosity/solve/physical.hpp"
 
 namespace radiosity::app {
 namespace {
@@ -99,17 +100,6 @@ std::vector<Rgb> solved_frame(const RelightArgs& a, const RelightInputs& in, con
   return std::move(res.B);
 }
 
-// "patch I channel C is inf" for the first value of B that is not finite, empty when all are: a frame whose radiosity
-// is not finite is no answer (exit status 3), whichever way it was made (solve checks its result alike).
-std::string nonfinite_where(const std::vector<Rgb>& B) {
-  for (size_t i = 0; i < B.size(); ++i)
-    for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(B[i][c]))
-        return "radiosity of patch " + std::to_string(i) + " channel " + "rgb"[c] + " is " +
-               (std::isnan(B[i][c]) ? "NaN" : B[i][c] > 0 ? "inf" : "-inf");
-  return {};
-}
-
 void print_frame(size_t k, const nlohmann::json& fr, double ms) {
   std::printf("  frame %zu: %s %.4f ms", k, fr["kind"].get<std::string>().c_str(), ms);
   if (fr.contains("iterations")) std::printf(", %ld iterations", fr["iterations"].get<long>());
@@ -141,8 +131,7 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
     nlohmann::json fr = {{"frame", k}};
     std::vector<Rgb> B;
     double ms = 0;
-    Mesh fm;
-    if (check || !f.scene_reflectivity) fm = frame_mesh(in.m, in.named, f);
+    const Mesh fm = frame_mesh(in.m, in.named, f);  // the frame's emission and reflectivity
     if (f.scene_reflectivity) {
       hpcgi::Timer ft;
       mix(basis, f.lights, mixed, 1);  // one thread: see the record's perf.timer
@@ -158,9 +147,13 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
         break;
       }
     }
-    if (const std::string bad = nonfinite_where(B); !bad.empty()) {
-      s.outcome = {hpcgi::kExitNumerical, "frame " + std::to_string(k) + ": nonfinite: " + bad};
-      fr["status"] = "nonfinite";
+    // The one physical check (solve's frames had it in solve; a mixed frame is checked here, its sums in float):
+    // finite, and B >= E within the basis's residual and the rounding.
+    const double r = fr["residual"].get<double>();
+    const PhysicalCheck pc = check_physical(frame_system(in, fm), B, Rgb{r, r, r}, a.cfg.tol, Precision::single);
+    if (pc.status != SolveStatus::converged) {
+      s.outcome = {hpcgi::kExitNumerical, "frame " + std::to_string(k) + ": " + to_string(pc.status) + ": " + pc.detail};
+      fr["status"] = to_string(pc.status);
       s.per_frame.push_back(fr);
       break;
     }

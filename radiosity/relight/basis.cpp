@@ -41,6 +41,7 @@ LightBasis solve_light_basis(const Mesh& m, const FFMatrixView& F, const std::ve
   // rank 0 alone reports it.
   using Failed = hpcgi::Agreed<hpcgi::NumericalError>;
   if (r.status == SolveStatus::nonfinite) throw Failed("light basis: " + r.detail);
+  if (failed(r.status)) throw Failed("light basis: " + std::string(to_string(r.status)) + ": " + r.detail);
   if (r.status != SolveStatus::converged)
     throw Failed("light basis: relative residual " + std::to_string(r.max_residual) + " after " +
                  std::to_string(opt.max_iter) + " Jacobi steps, not " + std::to_string(opt.tol));

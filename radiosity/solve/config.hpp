@@ -46,9 +46,11 @@ enum class SolveStatus {
   divergent,   // Jacobi (and original): the residual grew far past its start (divergence.hpp; detail says where)
   stagnant,    // Jacobi, Gauss-Seidel, SOR with a tolerance: the residual stopped moving far above it (divergence.hpp;
                //   detail starts "no solution: ")
+  unphysical,  // B falls below E beyond the answer's residual and rounding (physical.hpp): ρF amplifies the light
 };
 const char* to_string(SolveStatus s);
-// Whether the run's numbers went wrong (breakdown, nonfinite, divergent, stagnant): its B is no answer, exit status 3.
+// Whether the run's numbers went wrong (breakdown, nonfinite, divergent, stagnant, unphysical): its B is no answer,
+// exit status 3.
 bool failed(SolveStatus s);
 
 struct SolveResult {

@@ -10,6 +10,7 @@
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/methods/multi_rhs.hpp"
 #include "radiosity/solve/solve.hpp"
+#include "radiosity/solve/physical.hpp"
 
 namespace radiosity {
 namespace {
@@ -67,6 +68,19 @@ MultiSolveResult run_multi(MultiFactory<T> make, const System& sys, const std::v
   res.matrix_passes = run.matrix_passes;
   res.threads = k->threads();
   res.matrix_bytes = k->matrix_bytes();
+  if (!failed(res.status)) {  // every right-hand side's answer gets the one physical check (physical.hpp)
+    System one = sys;
+    for (size_t q = 0; q < E.size(); ++q) {
+      one.emission = E[q];
+      const Rgb worst{run.worst, run.worst, run.worst};
+      const PhysicalCheck c = check_physical(one, res.B[q], worst, cfg.tol, cfg.precision);
+      if (c.status != SolveStatus::converged) {
+        res.status = c.status;
+        res.detail = "right-hand side " + std::to_string(q) + ": " + c.detail;
+        break;
+      }
+    }
+  }
   return res;
 }
 

@@ -11,6 +11,7 @@
 #include "common/timer.hpp"
 #include "radiosity/solve/backends.hpp"
 #include "radiosity/solve/methods/methods.hpp"
+#include "radiosity/solve/physical.hpp"
 
 namespace radiosity {
 namespace {
@@ -77,13 +78,14 @@ const char* to_string(SolveStatus s) {
     case SolveStatus::nonfinite: return "nonfinite";
     case SolveStatus::divergent: return "divergent";
     case SolveStatus::stagnant: return "stagnant";
+    case SolveStatus::unphysical: return "unphysical";
   }
   return "unknown";
 }
 
 bool failed(SolveStatus s) {
   return s == SolveStatus::breakdown || s == SolveStatus::nonfinite || s == SolveStatus::divergent ||
-         s == SolveStatus::stagnant;
+         s == SolveStatus::stagnant || s == SolveStatus::unphysical;
 }
 
 // How a backend is built: compiled into this binary or not (why not), and its run. The GPU backends are listed in
@@ -240,10 +242,16 @@ SolveResult solve(const System& sys, const SolveConfig& cfg, const IterationCall
                             " (an MPI rank's share): use backend mpi");
   if (sys.matrix.n) require_storage(*b, sys.matrix.storage, sys.matrix.values);
   check_config(cfg);
-  if (cfg.start == Start::rrv) return b->run(sys, cfg, callback);
-  System started = sys;  // the same F (not owned), another b_0
-  started.initial = start_vector(sys, cfg.start);
-  return b->run(started, cfg, callback);
+  SolveResult res;
+  if (cfg.start == Start::rrv) {
+    res = b->run(sys, cfg, callback);
+  } else {
+    System started = sys;  // the same F (not owned), another b_0
+    started.initial = start_vector(sys, cfg.start);
+    res = b->run(started, cfg, callback);
+  }
+  require_physical(sys, res, cfg.steps > 0 ? 0.0 : cfg.tol, cfg.precision);  // every backend's answer, once
+  return res;
 }
 
 void require_storage(const SolveBackend& b, FFStorage storage, FFValues values) {

@@ -24,6 +24,10 @@ STEPS = [1, 2, 4, 8, 16, 32, 64]
 THRESHOLDS = [0, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3]
 ROOM3_THRESHOLDS = [0, 1e-6, 1e-4]  # docs/design-notes.md, "Speed against accuracy": dense and CSR memory and their error
 EXTREME_RHO = ["0.9", "0.99", "0.999", "0.9999"]
+# Closed boxes whose light is amplified, not absorbed (issue 54): no physical answer, every method in both precisions
+# must say so (exit 3, or 4 where it stops at --max-iter), never 0.
+AMPLIFIED_RHO = ["1", "1.05", "1.2"]
+METHODS = ("jacobi", "gauss-seidel", "sor --omega 1.2", "bicgstab")
 
 
 def accuracy(preset, p):
@@ -50,7 +54,7 @@ def accuracy(preset, p):
                                  "closed boxes of the extremes", 1, [
         *(f"bin/radiosity formfactors {scene(s)} --divide {d:g} -o {ff_file(s, d, R)} --hemicube {R} --weights exact "
           f"--threads {cores}" for (s, d, R) in ff_cases),
-        *(f"bin/radiosity formfactors {box} --divide {div} -o {{FF_DIR}}/{preset}-ext-{name}.ff --hemicube 256 "
+        *(f"bin/radiosity formfactors {box}{ge1(name)} --divide {div} -o {{FF_DIR}}/{preset}-ext-{name}.ff --hemicube 256 "
           f"--weights exact --threads {cores}" for name, box, div in extreme_boxes())])
     # Float's rounding floors the error near 1e-7: tolerances below it run in double (in float BiCG-STAB would only
     # spend max_iter iterations not reaching them).
@@ -88,10 +92,11 @@ def accuracy(preset, p):
 
     def box_solve(name, args):
         box, div = boxes[name]
-        return f"{solve} {box} --divide {div} --ff {{FF_DIR}}/{preset}-ext-{name}.ff {args} {default}"
+        return f"{solve} {box}{ge1(name)} --divide {div} --ff {{FF_DIR}}/{preset}-ext-{name}.ff {args} {default}"
 
     e["extremes"] = ("Extremes: closed box rho 0.9 ... 0.9999, emission 1e30 and 1e-30 in float, faces of area 1e-8 "
-                     "and 1e8; Poisson CG in float and double, N = 1, 2 and large", 1, [
+                     "and 1e8; Poisson CG in float and double, N = 1, 2 and large; closed box rho 1, 1.05, 1.2 (no "
+                     "physical answer), every method in float and double", 1, [
         *(box_solve(f"rho{r}", f"--tol 1e-6 --precision {prec} --max-iter 200000")
           for r in EXTREME_RHO for prec in ("double", "float")),
         *(box_solve(f"rho{r}", "--method bicgstab --tol 1e-6 --precision double") for r in EXTREME_RHO),
@@ -99,8 +104,15 @@ def accuracy(preset, p):
           for x in ("1e30", "1e-30") for m in ("jacobi", "bicgstab")),
         *(box_solve(f"side{x}", "--tol 1e-6 --precision float") for x in ("1e-4", "1e4")),
         *(f"bin/poisson --n {n} --precision {prec} --backend openmp --threads {t} --max-iter 100000"
-          for n in a["poisson_n"] for prec in ("float", "double"))])
+          for n in a["poisson_n"] for prec in ("float", "double")),
+        *(box_solve(f"rho{r}", f"--method {m} --tol 1e-6 --precision {prec} --max-iter 200000")
+          for r in AMPLIFIED_RHO for m in METHODS for prec in ("float", "double"))])
     return e
+
+
+def ge1(name):
+    """RRV's scenes refuse a reflectivity of 1 or more unless asked: the amplifying boxes ask."""
+    return " --allow-reflectivity-ge-1" if name.startswith("rho") and name[3:] in AMPLIFIED_RHO else ""
 
 
 def extreme_boxes():
@@ -108,4 +120,5 @@ def extreme_boxes():
     d = "radiosity/scenes/extremes"
     return [*((f"rho{r}", f"{d}/box_rho{r}.xml", "0.1") for r in EXTREME_RHO),
             *((f"emission{x}", f"{d}/box_emission{x}.xml", "0.1") for x in ("1e30", "1e-30")),
-            ("side1e-4", f"{d}/box_side1e-4.xml", "1e-9"), ("side1e4", f"{d}/box_side1e4.xml", "1e7")]
+            ("side1e-4", f"{d}/box_side1e-4.xml", "1e-9"), ("side1e4", f"{d}/box_side1e4.xml", "1e7"),
+            *((f"rho{r}", f"{d}/box_rho{r}.xml", "0.1") for r in AMPLIFIED_RHO)]

@@ -4,7 +4,9 @@ inside of the unit cube of radiosity/scenes/closed_box.xml, every face alike, so
 to s gives B = E / (1 - rho s) everywhere (E / (1 - rho) for s = 1). Run it after changing it; the files are
 committed.
 
-  box_rho<R>.xml       reflectivity R = 0.9 ... 0.9999, E = 1: how Jacobi's steps and the error grow as 1/(1 - rho)
+  box_rho<R>.xml       reflectivity R = 0.9 ... 0.9999, E = 1: how Jacobi's steps and the error grow as 1/(1 - rho);
+                       R = 1, 1.05 and 1.2 (read with --allow-reflectivity-ge-1): the light is amplified, not absorbed,
+                       and no physical answer exists (every method must say so)
   box_emission<E>.xml  E = 1e30 and 1e-30, rho = 0.5: float32's range (overflow, products near denormals)
   box_side<S>.xml      the box scaled by S = 1e-4 and 1e4: faces of area 1e-8 and 1e8 (solve with --divide 0.1 S^2)"""
 from pathlib import Path
@@ -28,6 +30,9 @@ def main():
     files = {}
     for rho in ("0.9", "0.99", "0.999", "0.9999"):
         files[f"box_rho{rho}.xml"] = box(rho=rho, note=f"closed unit box, rho = {rho}, E = 1: B = 1 / (1 - rho s)")
+    for rho in ("1", "1.05", "1.2"):
+        files[f"box_rho{rho}.xml"] = box(rho=rho, note=f"closed unit box, rho = {rho}, E = 1: the series of bounces "
+                                                     "diverges, no physical answer")
     for e in ("1e30", "1e-30"):
         files[f"box_emission{e}.xml"] = box(emission=e, note=f"closed unit box, rho = 0.5, E = {e}: B = 2 E")
     for side in ("1e-4", "1e4"):
