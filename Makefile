@@ -93,7 +93,7 @@ MACHINE_ARG = $(if $(MACHINE),--machine "$$MACHINE")
 # `NAME ?= value` would define it empty). Compilers and their flags (CXX OPT NVCC...) are commands by nature.
 # The targets that run Python from the project's venv install it first when it is missing or stale, as make test does.
 NEEDS_DEPS = @common/deps.sh --check || common/deps.sh
-.PHONY: all test unit fuzz deps clean help reproduce regenerate-reference resume plots report audit bench scenes gpu-kit gpu-import FORCE
+.PHONY: all test unit fuzz deps clean help reproduce regenerate-reference resume plots report machines audit bench scenes gpu-kit gpu-import FORCE
 all: $(PROGRAMS)
 	@$(if $(HAVE_MPI),,echo "make: MPI left out: no '$(MPICXX)' on PATH (set MPICXX=...); backend mpi of bin/poisson \
 	  and bin/radiosity, and bin/radiosity formfactors under mpirun, are not built")
@@ -110,7 +110,8 @@ help:
 	@echo "make plots      tables and plots (results/<machine>/tables, plots) from the machine's records"
 	@echo "make bench      bandwidth limit, our solvers and their peers (SciPy, NumPy, PETSc+hypre) here: results/<machine>/tables/bench_PRESET.md"
 	@echo "                (BENCH=\"bench-sparse bench-relight\": only those case lists)"
-	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md, and report/MACHINES.md"
+	@echo "make report     the reproduced report, report/<machine>/REPORT-<preset>.md"
+	@echo "make machines   report/MACHINES.md: every machine with records side by side"
 	@echo "make audit      re-run a sample of this machine's recorded cases and compare (AUDIT_SAMPLE=5)"
 	@echo "variables: PRESET=quick|paper RUNNER=local|slurm LONG=0|1 EXPERIMENTS=... MACHINE=<label> (default: this machine's)"
 	@echo "make gpu-kit    build/gpu-kit/: a relocatable folder that runs the GPU half of the study on a bare GPU node (CUDA_ARCHS)"
@@ -258,6 +259,12 @@ plots:
 
 report: plots
 	$(VENV)/bin/python -m analysis report "$$PRESET" $(MACHINE_ARG)
+
+# report/MACHINES.md: every machine with records side by side; written only when asked (a machine's own make
+# reproduce or make report never rewrites the committed file).
+machines:
+	$(NEEDS_DEPS)
+	$(VENV)/bin/python -m analysis machines "$$PRESET"
 
 # RRV's scenes 3 and 4 from its public repository at one commit, checked by SHA-256 (RRV_URL=, SCENES_CACHE=).
 scenes:

@@ -1,9 +1,12 @@
 """Strings from files (record fields, machine.json, folder names) put into markdown as text, never as markup (issue
 33): `md` turns HTML's & < > into entities and escapes with a backslash every other character markdown gives a
 meaning to inside a line (emphasis, code, links, images, headings, table cells, strikethrough, backslash); a line
-break becomes a space, so a value never starts a line of its own (a heading, a list) nor ends a table row.
+break becomes a space, so a value never starts a line of its own (a heading, a list) nor ends a table row; a Unicode
+control or format character (a bidirectional override such as U+202E, a zero-width joiner) is written as its name,
+"U+202E", so that no value reorders or hides the text around it (issue 48).
 `md_table` writes a frame as a markdown table with every cell and header escaped. (The analysis writes no HTML.)"""
 import math
+import unicodedata
 
 # CommonMark lets a backslash escape any ASCII punctuation; these are the ones that start markup inside a line
 # (links and images need [ and ], so parentheses stay as they are; < and > are entities).
@@ -21,6 +24,8 @@ def md(value):
             out.append("\\" + ch)
         elif ch in "\r\n\t\f\v":
             out.append(" ")
+        elif unicodedata.category(ch) in ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp"):
+            out.append(f"U+{ord(ch):04X}")
         else:
             out.append(ch)
     return "".join(out)

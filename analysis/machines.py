@@ -1,26 +1,19 @@
 """report/MACHINES.md: every machine with records in results/, its provenance and its headline numbers side by side
 (Table 4.1 at N = 1024, Table 4.2 on scene 3, a Jacobi step of room3, the triad bandwidth), each from that
 machine's own records."""
-import json
 import sys
 
 import pandas as pd
 
 from analysis import radiosity_tables, table41
 from analysis.escape import md, md_table
-from analysis.records import cell, summarise, load, machine_dir, machines, on, reference, report_dir
+from analysis.records import cell, summarise, load, machine_dir, machine_label, machines, on, reference, report_dir
 
 
 def describe(label):
     """What machine.json (written by the runner) says of a machine, else what its records' provenance says."""
-    f = machine_dir(label) / "machine.json"
-    if f.exists():
-        try:
-            d = json.loads(f.read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise ValueError(f"{f}: not readable JSON ({e})") from e
-        if not isinstance(d, dict):
-            raise ValueError(f"{f}: not a JSON object")
+    d = machine_label.read_owner(machine_dir(label))  # ValueError where it is damaged or no regular file
+    if d:
         return d.get("host"), d.get("cpu_model"), d.get("cpus_online"), d.get("gpu")
     for exp in ("table41", "table42", "formfactors", "bench-stream"):
         df = load(exp)

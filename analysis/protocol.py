@@ -13,9 +13,9 @@ may use, and how tight each timed group is.
 Every record left out, and every one without machine state, is counted per records file (COUNTS), and
 `note(files)` says so in one sentence under each table."""
 import importlib.util
-import json
 import os
 import subprocess
+import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
@@ -28,6 +28,7 @@ _spec = importlib.util.spec_from_file_location("timing_protocol", Path(__file__)
                                                "timing_protocol.py")
 timing_protocol = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(timing_protocol)
+harness_io = timing_protocol.harness_io  # the one way to open a harness file (common/harness_io.py)
 
 TARGET = timing_protocol.TARGET  # the 95% interval of a group's median within +-5% of it
 WHY = {"dirty": "from a working tree with uncommitted changes", "unknown_commit": "from a commit not in this repository",
@@ -63,26 +64,36 @@ def known(commits):
     return {c for c in map(str, commits) if _commits.get(c)}
 
 
+BAD_STATE = []  # (state file, line, why) of the state lines left out: named on stderr, counted
+
+
 def state(records_file):
     """(runs, stops) of a records file's state file: runs (case, repeat) -> its state, stops case -> "interval" or
-    "cap"; None when there is no state file. A line that is not a JSON object is an error."""
+    "cap"; None when there is no state file. A line that is no JSON object naming its case (and, for a run, its
+    repeat as a whole number) is named with its file and line on stderr, counted in BAD_STATE, and left out; a state
+    file that is no regular file (a FIFO, a device) is named and read as none."""
     f = Path(str(records_file)[: -len(".jsonl")] + ".state.jsonl")
-    if not f.exists():
+    try:
+        good, bad = harness_io.read_objects(f)
+    except harness_io.HarnessFileError as e:
+        BAD_STATE.append((str(f), 0, str(e)))
+        print(f"analysis: {e}: its runs are counted as without machine state", file=sys.stderr)
+        return None
+    if not good and not bad and not f.exists():
         return None
     runs, stops = {}, {}
-    for n, line in enumerate(f.read_text().splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            s = json.loads(line)
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{f}:{n}: not a JSON state line: {e}") from e
-        if not isinstance(s, dict) or "case" not in s:
-            raise ValueError(f"{f}:{n}: a state line needs an object with \"case\"")
-        if "stop" in s:
+    for n, s in good:
+        if not isinstance(s.get("case"), str):
+            bad.append((n, 'no "case"'))
+        elif "stop" in s:
             stops[s["case"]] = s["stop"]
+        elif isinstance(s.get("repeat"), int) and not isinstance(s.get("repeat"), bool):
+            runs[(s["case"], s["repeat"])] = s
         elif "repeat" in s:
-            runs[(s["case"], int(s["repeat"]))] = s
+            bad.append((n, f"its repeat {str(s['repeat'])[:20]!r} is no whole number"))
+    for n, why in bad:
+        BAD_STATE.append((str(f), n, why))
+        print(f"analysis: {f}:{n}: no state line ({why}), left out", file=sys.stderr)
     return runs, stops
 
 

@@ -67,6 +67,9 @@ def no_gpu_note(experiment, preset):
     notes = []
     if (s["reason"] == "no GPU on this machine").any():
         notes.append(f"No GPU on this machine ({hosts}): the CUDA cases were not run, and no number stands in for them.")
+    if s["reason"].astype(str).str.startswith("needs >= ").any():
+        notes.append("Cases with more MPI ranks than this machine has cores were not run (such a run measures the "
+                     "oversubscription, not the code; OVERSUBSCRIBE=1 runs them, recorded as oversubscribed).")
     if (s["reason"] == "no RRV scenes").any():
         notes.append("No RRV scenes on this machine: the cases of scenes 3 and 4 (RRV's room3.xml and room2.xml) were "
                      "not run (`make scenes` fetches them), and no number stands in for them.")

@@ -6,7 +6,6 @@ one (`machine()`: set by `use(label)`, else $MACHINE, else this machine's label)
 for a while (the reference machine's numbers beside this machine's), without writing any file for it."""
 import contextlib
 import importlib.util
-import json
 import os
 import sys
 from pathlib import Path
@@ -16,7 +15,7 @@ import pandas as pd
 
 from analysis import protocol
 from analysis.escape import md
-from analysis.record import validate
+from analysis.record import loads, validate
 
 ROOT = Path(__file__).resolve().parent.parent
 # Records, tables and plots live in $RESULTS (default results/), the report's published numbers in results/paper.
@@ -26,6 +25,7 @@ PAPER = ROOT / "results" / "paper"
 _spec = importlib.util.spec_from_file_location("machine_label", ROOT / "common" / "machine_label.py")
 machine_label = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(machine_label)
+harness_io = machine_label.harness_io  # the one way to open a harness file (common/harness_io.py)
 
 _state = {"machine": None, "write": True}
 
@@ -45,7 +45,10 @@ def machine():
 def reference():
     """The reference machine every report compares against (results/REFERENCE), or None where there is none."""
     f = RESULTS / "REFERENCE"
-    label = f.read_text().strip() if f.exists() else ""
+    try:
+        label = (harness_io.read_bytes(f) or b"").decode(errors="replace").strip()
+    except harness_io.HarnessFileError:
+        label = ""
     return label if label and (RESULTS / label).is_dir() else None
 
 
@@ -101,22 +104,31 @@ INVALID = []
 
 
 def read_jsonl(path, records=True):
-    """The records of one file; a line that does not parse is an error (appends are atomic, so none should). With
-    records=True each is checked against the schema: one that does not validate is reported on stderr with its file
-    and line, kept in INVALID, and left out (never silently used)."""
+    """The records of one file (a harness file: a FIFO or a device is refused, common/harness_io.py). A line that is
+    no JSON object, or with records=True no valid record against the schema, is reported on stderr with its file and
+    line, kept in INVALID, and left out (never silently used, and never the end of the analysis)."""
     rows = []
-    for n, line in enumerate(Path(path).read_text().splitlines(), 1):
-        if line.strip():
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}:{n}: not a JSON record: {e}") from e
-            wrong = validate(rec) if records else None
-            if wrong:
-                INVALID.append((str(path), n, wrong))
-                print(f"analysis: {path}:{n}: not a valid hpcgi-record/1 record, left out: {wrong}", file=sys.stderr)
-                continue
-            rows.append(rec)
+    try:
+        data = harness_io.read_bytes(path, harness_io.LARGE) or b""
+    except harness_io.HarnessFileError as e:
+        INVALID.append((str(path), 0, str(e)))
+        print(f"analysis: {e}: left out", file=sys.stderr)
+        return rows
+    for n, raw in enumerate(data.split(b"\n"), 1):
+        if not raw.strip():
+            continue
+        try:
+            rec = loads(raw.decode("utf-8"))
+            wrong = None if isinstance(rec, dict) else f"a JSON {type(rec).__name__}, no object"
+        except (ValueError, UnicodeDecodeError, RecursionError) as e:
+            rec, wrong = None, f"not JSON ({str(e)[:80]})"
+        wrong = wrong or (validate(rec) if records else None)
+        if wrong:
+            INVALID.append((str(path), n, wrong))
+            print(f"analysis: {path}:{n}: not a valid {'hpcgi-record/1 record' if records else 'line'}, left out: "
+                  f"{wrong}", file=sys.stderr)
+            continue
+        rows.append(rec)
     return rows
 
 

@@ -189,8 +189,30 @@ int report(const std::string& program, const std::exception& e, const char* kind
 
 }  // namespace
 
+// The environment settings the programs read, checked as their flags are: OpenMP's thread count (libgomp takes
+// 100000 and crashes at the first parallel region; 5000 makes a small solve take seconds) and the huge-page switch.
+void check_environment() {
+  if (const char* v = std::getenv("OMP_NUM_THREADS")) {  // set but empty is refused too (libgomp warns, goes on)
+    const std::string s(v);
+    size_t at = 0;
+    while (at <= s.size()) {  // OpenMP allows a list, one count per nesting level
+      const size_t comma = std::min(s.find(',', at), s.size());
+      const std::string part = s.substr(at, comma - at);
+      char* end = nullptr;
+      const long n = part.empty() ? 0 : std::strtol(part.c_str(), &end, 10);
+      if (part.empty() || *end != '\0' || n < 1 || n > 4096)
+        throw UsageError("OMP_NUM_THREADS=" + one_line(s, 40) + ": each count must be a whole number of threads from "
+                         "1 to 4096 (as --threads)");
+      at = comma + 1;
+    }
+  }
+  if (const char* v = std::getenv("HPCGI_HUGE_PAGES"); v && *v && std::string(v) != "0" && std::string(v) != "1")
+    throw UsageError("HPCGI_HUGE_PAGES=" + one_line(v, 40) + ": 0 (4 KiB pages) or 1 (huge pages, the default)");
+}
+
 int run_main(const std::string& program, const std::function<int()>& body) {
   try {
+    check_environment();
     return body();
   } catch (const UsageError& e) {
     return report(program, e, "", kExitUsage);

@@ -27,13 +27,16 @@ enum ExitStatus : int {
   kExitDisagreed = 5,     // the answer disagreed with its float64 check
 };
 
-// The help text of the table above, for every program's --help.
-inline const char* exit_status_help() {
-  return "Exit status: 0 an answer (converged, or the fixed --steps ran, and agreed with its float64 check unless\n"
-         "--no-verify); 1 runtime failure (I/O, device); 2 bad arguments or input (nothing written); 3 numerical\n"
-         "failure (NaN/Inf, breakdown, divergence, or 'no solution': the residual stopped decreasing far above the\n"
-         "tolerance); 4 not converged within --max-iter; 5 disagreed with its float64 check. With 3, 4 and 5 the\n"
-         "record (--record) is still written, with result.exit_status and result.exit_reason.\n";
+// The help text of the table above, for every program's --help; `skip_verify`: the option by which the program
+// skips its float64 check, where it has one (a --help lists only what its program accepts).
+inline std::string exit_status_help(const char* skip_verify = nullptr) {
+  return std::string("Exit status: 0 an answer (converged, or the fixed --steps ran, and agreed with its float64 check") +
+         (skip_verify ? std::string(" unless\n") + skip_verify : std::string("")) +
+         "); 1 runtime failure (I/O, device); 2 bad arguments or input (nothing written); 3\n"
+         "numerical failure (NaN/Inf, breakdown, divergence, 'no solution': the residual stopped decreasing far\n"
+         "above the tolerance, or an unphysical answer); 4 not converged within --max-iter; 5 disagreed with its\n"
+         "float64 check. With 3, 4 and 5 the record (--record) is still written, with result.exit_status and\n"
+         "result.exit_reason.\n";
 }
 
 // Bad arguments or bad input data. main() prints "<program>: <what>" and exits with status 2.

@@ -20,6 +20,7 @@ machine may not add records to a folder (another machine's, or one whose owner i
 machine.json into a new folder. Records are never pooled across machines: the reference machine's committed folder
 changes only through `make regenerate-reference`, which names it (slurm/regenerate-reference).
 Standard library only: it runs on a bare GPU node without the project's virtual environment."""
+import hashlib
 import json
 import os
 import re
@@ -29,6 +30,9 @@ import subprocess
 import sys
 import uuid
 from pathlib import Path
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness_io  # noqa: E402  (common/, beside this file: the one way to open a harness file)
 
 # Names in results/ that are not machines.
 RESERVED = {"paper", "tables", "plots", "report"}
@@ -86,7 +90,9 @@ def machine_id():
                 pass
             finally:
                 tmp.unlink()
-        mid = f.read_text().strip().lower()
+        mid = (harness_io.read_bytes(f) or b"").decode(errors="replace").strip().lower()
+    except harness_io.HarnessFileError as e:
+        raise NoIdentity(f"this machine's id file: {e}: remove it and run again") from e
     except OSError as e:
         raise NoIdentity(f"cannot keep this machine's id in {f} ({e.strerror}): set HPCGI_STATE_DIR=DIR "
                          f"(a folder of this machine's) or HPCGI_MACHINE_ID") from e
@@ -155,49 +161,83 @@ def from_record(rec):
                 (p.get("env") or {}).get("HPCGI_MACHINE_ID"))
 
 
+def digest(mid):
+    """What a machine.json publishes of a machine's id: its SHA-256, never the id itself (an id that is published can
+    be copied into a forged archive or environment; its digest cannot be turned back into it)."""
+    return hashlib.sha256(str(mid).strip().lower().encode()).hexdigest()
+
+
 def read_owner(folder):
-    """The machine.json of a machine folder as a dict, {} where there is none; ValueError where it is damaged."""
+    """The machine.json of a machine folder as a dict, {} where there is none; ValueError where it is damaged or no
+    regular file (a FIFO is never waited on)."""
     f = Path(folder) / "machine.json"
-    if not f.exists():
+    try:
+        data = harness_io.read_bytes(f)
+    except (OSError, harness_io.HarnessFileError) as e:
+        raise ValueError(f"{f} is unreadable ({e})") from e
+    if data is None:
         return {}
     try:
-        d = json.loads(f.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as e:
+        d = json.loads(data.decode())
+    except (UnicodeDecodeError, ValueError, RecursionError) as e:
         raise ValueError(f"{f} is unreadable ({e})") from e
     if not isinstance(d, dict):
         raise ValueError(f"{f} is no JSON object")
     return d
 
 
+def owns(d, mid):
+    """Whether the machine of id `mid` is the owner a machine.json `d` names: by the digest it publishes, or, in a
+    folder claimed before digests (its id published), by that id, case aside."""
+    if isinstance(d.get("machine_id_sha256"), str):
+        return d["machine_id_sha256"] == digest(mid)
+    return isinstance(d.get("machine_id"), str) and d["machine_id"].strip().lower() == str(mid).strip().lower()
+
+
 def owner_problem(folder, mid):
     """Why the machine of id `mid` may not add records to `folder`, in one sentence; None where it may (the folder
     is its own, or new: no machine.json and no records)."""
     folder = Path(folder)
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        return f"{folder} is no folder (a link or a file)"
     try:
         d = read_owner(folder)
     except ValueError as e:
         return str(e)
-    if d.get("machine_id") == mid:
+    if d and owns(d, mid):
         return None
-    if d.get("machine_id"):
-        return (f"{folder} belongs to another machine (id {str(d['machine_id'])[:6]}, host {d.get('host', '?')!r}; "
-                f"this machine's id is {mid[:6]})")
+    if d.get("machine_id") or d.get("machine_id_sha256"):
+        return (f"{folder} belongs to another machine (host {d.get('host', '?')!r}; this machine's id is "
+                f"{str(mid)[:6]}...)")
     if d or (folder.is_dir() and any(folder.glob("*/*.jsonl"))):
         return f"{folder} holds records of a machine whose id is not known (no machine_id in its machine.json)"
     return None
 
 
 def claim(folder, label):
-    """Writes machine.json (this machine, under `label`) into a folder that has none; atomic."""
+    """Makes `folder` this machine's (its machine.json, under `label`) where it is new, atomically: two first
+    writers at once, of two machines, leave one machine.json, and the other is then refused by owner_problem. Returns
+    owner_problem's answer after the claim (None: the folder is this machine's)."""
     folder = Path(folder)
-    if (folder / "machine.json").exists():
-        return
+    mid = machine_id()
+    why = owner_problem(folder, mid)
+    if why or (folder / "machine.json").exists():
+        return why
     folder.mkdir(parents=True, exist_ok=True)
     d = describe()
     d["label"] = label
+    d["machine_id_sha256"] = digest(d.pop("machine_id"))
     tmp = folder / f".machine.json.{os.getpid()}"
-    tmp.write_text(json.dumps(d, sort_keys=True) + "\n")
-    os.replace(tmp, folder / "machine.json")
+    try:
+        tmp.write_text(json.dumps(d, sort_keys=True) + "\n")
+        os.link(tmp, folder / "machine.json")  # fails where another claimed it first: then its owner decides
+    except FileExistsError:
+        pass
+    except OSError as e:
+        return f"cannot claim {folder} ({e.strerror})"
+    finally:
+        tmp.unlink(missing_ok=True)
+    return owner_problem(folder, mid)
 
 
 WAY_OUT = ("leave MACHINE unset (this machine's own folder) or name a new folder with MACHINE=<name>; the "
@@ -206,13 +246,12 @@ WAY_OUT = ("leave MACHINE unset (this machine's own folder) or name a new folder
 
 def checked_label(results, write=False):
     """This machine's label after checking that it may add records to results/<label>/ (write=True: and claiming it
-    when new); ValueError with one sentence and the way out where it may not."""
+    when new, the check made again after the claim); ValueError with one sentence and the way out where it may not."""
     label = this_machine()
-    why = owner_problem(Path(results) / label, machine_id())
+    folder = Path(results) / label
+    why = claim(folder, label) if write else owner_problem(folder, machine_id())
     if why:
         raise ValueError(f"{why}: {WAY_OUT}")
-    if write:
-        claim(Path(results) / label, label)
     return label
 
 

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
@@ -152,11 +153,37 @@ void set_outcome(nlohmann::json& rec, const Outcome& outcome) {
   rec["result"]["exit_reason"] = outcome.status == kExitOk ? nlohmann::json() : nlohmann::json(outcome.reason);
 }
 
+namespace {
+
+// The offset just after the last newline of the open file fd of `size` bytes (0 where it has none): where a torn
+// last line (a write that was killed) begins.
+off_t after_last_newline(int fd, off_t size) {
+  char buf[65536];
+  for (off_t end = size; end > 0;) {
+    const off_t start = end > off_t(sizeof buf) ? end - off_t(sizeof buf) : 0;
+    const ssize_t n = ::pread(fd, buf, size_t(end - start), start);
+    if (n <= 0) return -1;
+    for (ssize_t k = n - 1; k >= 0; --k)
+      if (buf[k] == '\n') return start + k + 1;
+    end = start;
+  }
+  return 0;
+}
+
+}  // namespace
+
+// Appends one record as one line, whole or not at all (the harness's rule for every JSON Lines file it keeps,
+// common/harness_io.py the same in Python): the file must be a regular one (a FIFO, a device or a symbolic link is
+// refused, never waited on or written through); under an exclusive lock, a torn last line left by a killed write
+// is cut off first (said on stderr), so that the new record never glues onto it; every byte is written, else the
+// file is cut back to where it was; then it is synced.
 void append(const std::string& path, const nlohmann::json& rec) {
   const std::string line = rec.dump() + "\n";
   std::filesystem::path p(path);
   if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
-  int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  int fd = ::open(path.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+  if (fd < 0 && errno == ELOOP)
+    throw std::runtime_error("record file " + path + " is a symbolic link: refused (records are written to a file)");
   if (fd < 0) throw std::runtime_error("cannot open record file " + path + ": " + std::strerror(errno));
   auto fail = [&](const std::string& what, off_t restore) {
     int err = errno;
@@ -164,16 +191,34 @@ void append(const std::string& path, const nlohmann::json& rec) {
     ::close(fd);
     throw std::runtime_error(what + " " + path + ": " + std::strerror(err));
   };
-  if (flock(fd, LOCK_EX) != 0) fail("cannot lock record file", -1);
   struct stat st {};
   if (fstat(fd, &st) != 0) fail("cannot stat record file", -1);
-  const off_t old_size = st.st_size;
-  ssize_t n = ::write(fd, line.data(), line.size());
-  if (n != static_cast<ssize_t>(line.size())) {
-    if (n >= 0) errno = ENOSPC;  // a short write on a regular file means the disk is full
-    fail("cannot append record to", old_size);
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw std::runtime_error("record file " + path + " is no regular file (a FIFO, a device or a folder): refused");
   }
-  if (fsync(fd) != 0) fail("cannot sync record file", -1);
+  if (flock(fd, LOCK_EX) != 0) fail("cannot lock record file", -1);
+  if (fstat(fd, &st) != 0) fail("cannot stat record file", -1);
+  off_t old_size = st.st_size;
+  char last = '\n';
+  if (old_size > 0 && ::pread(fd, &last, 1, old_size - 1) != 1) fail("cannot read record file", -1);
+  if (last != '\n') {
+    const off_t keep = after_last_newline(fd, old_size);
+    if (keep < 0 || ftruncate(fd, keep) != 0) fail("cannot cut the torn last line of", -1);
+    std::fprintf(stderr, "record: %s ended in a torn line of %lld bytes (a write that was killed): cut off before "
+                 "appending\n", path.c_str(), static_cast<long long>(old_size - keep));
+    old_size = keep;
+  }
+  for (size_t done = 0; done < line.size();) {
+    const ssize_t n = ::write(fd, line.data() + done, line.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n == 0) errno = ENOSPC;  // no progress on a regular file: the disk is full
+      fail("cannot append record to", old_size);
+    }
+    done += size_t(n);
+  }
+  if (fsync(fd) != 0) fail("cannot sync record file", old_size);
   ::close(fd);  // releases the lock
 }
 

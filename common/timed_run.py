@@ -11,23 +11,63 @@ signal gives 128 + the signal, as a shell reports it), and appends one JSON line
 - others_cpu: the share of the machine's CPU time used by anything but this run while it ran (/proc/stat's busy
   time less the run's own, from wait4), steal: the share stolen by the hypervisor;
 - probe_*: a short memory-bandwidth probe (--probe, bin/stream's triad in GB/s) just before and just after;
-- disturbed: others_cpu above 10% of the machine, steal above 5%, or both probes below 80% of the baseline: the
-  median of the last 20 probes in the state file (the bandwidth drifts with the VM's neighbours: a run is judged
-  against the minutes around it), else the session's start ($HPCGI_PROBE_BASELINE_GBS, measured by slurm/run-local). The 1-minute load
-  average is written beside them but decides nothing: it lags by a minute and counts this study's own runs.
-A disturbed run stays in the records; the tables leave it out of their medians and count it.
+- cpu_pressure: the share of the run's wall time in which some task waited for a CPU (/proc/pressure/cpu's
+  "some" total, in microseconds: what the load average sees, without its minute of lag, and on a run of any
+  length); runnable_before/after: the tasks runnable at that instant besides this one (/proc/loadavg);
+- disturbed: others_cpu above 10% of the machine, steal above 5%, CPU pressure above 10% (not asked of a run that
+  oversubscribes the cores itself: --oversubscribed), as many other runnable tasks as cores before or after it,
+  or both probes below 80% of the baseline: the median of the last 20 probes in the state file (the bandwidth
+  drifts with the VM's neighbours: a run is judged against the minutes around it), else the session's start
+  ($HPCGI_PROBE_BASELINE_GBS, measured by slurm/run-local); a probe that is no plausible bandwidth (not finite, not
+  above 0, above 100 TB/s) is no baseline. The 1-minute load average is written beside them but decides nothing:
+  it lags by a minute and counts this study's own runs.
+A disturbed run stays in the records; the tables leave it out of their medians and count it. The state line is
+appended whole or not at all (common/harness_io.py): where it cannot be (a full disk, a state path that is no
+regular file), the run's exit status becomes 1 with one line, since its record is there without its state.
 Standard library only. A signal ignored at start stays ignored (the child inherits it)."""
 import json
+import math
 import os
 import re
 import subprocess
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness_io  # noqa: E402
+
 OTHERS_MAX = 0.10
 STEAL_MAX = 0.05
+PRESSURE_MAX = 0.10
 PROBE_MIN = 0.80
+PROBE_MAX_GBS = 1e5  # no memory streams 100 TB/s: a probe above it (or not above 0) is no measurement
 TICK = os.sysconf("SC_CLK_TCK")
+CORES = os.sysconf("SC_NPROCESSORS_ONLN") or 1
+
+
+def cpu_pressure_us():
+    """/proc/pressure/cpu's "some" total: microseconds in which some task waited for a CPU; None without PSI."""
+    try:
+        with open("/proc/pressure/cpu") as f:
+            for line in f:
+                if line.startswith("some"):
+                    return int(line.rsplit("total=", 1)[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def runnable_others():
+    """Tasks runnable at this instant besides this one (/proc/loadavg's fourth field, "runnable/total")."""
+    try:
+        with open("/proc/loadavg") as f:
+            return max(0, int(f.read().split()[3].split("/")[0]) - 1)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def plausible(gbs):
+    return isinstance(gbs, (int, float)) and not isinstance(gbs, bool) and math.isfinite(gbs) and 0 < gbs < PROBE_MAX_GBS
 
 
 def cpu_ticks():
@@ -61,12 +101,17 @@ def probe(cmd):
     return float(m.group(1)) if m else None
 
 
-def judge(others, steal, pb, pa, baseline):
+def judge(others, steal, pb, pa, baseline, pressure=None, runnable=(None, None)):
     reasons = []
     if others is not None and others > OTHERS_MAX:
         reasons.append(f"other processes used {100 * others:.0f}% of the CPUs")
     if steal is not None and steal > STEAL_MAX:
         reasons.append(f"the hypervisor stole {100 * steal:.0f}% of the CPU time")
+    if pressure is not None and pressure > PRESSURE_MAX:
+        reasons.append(f"tasks waited for a CPU {100 * pressure:.0f}% of the time (CPU pressure)")
+    busy = [n for n in runnable if n is not None and n >= CORES]
+    if busy:
+        reasons.append(f"{max(busy)} other tasks were runnable on {CORES} cores")
     probes = [p for p in (pb, pa) if p is not None]
     if baseline and probes and all(p < PROBE_MIN * baseline for p in probes):  # before and after: not one dip
         reasons.append(f"memory bandwidth probes {', '.join(f'{p:.1f}' for p in probes)} GB/s < {PROBE_MIN:.0%} of "
@@ -78,19 +123,11 @@ def recent_baseline(state, fallback, keep=20):
     """The median of the last `keep` probes in the state file (the machine's bandwidth drifts with its neighbours:
     a run is judged against the minutes around it), or `fallback` (the session's start) with fewer than 5."""
     vals = []
-    try:
-        with open(state, encoding="utf-8", errors="replace") as f:
-            for line in f:
-                try:
-                    d = json.loads(line)
-                except ValueError:
-                    continue
-                if isinstance(d, dict):
-                    vals += [d[k] for k in ("probe_before_gbs", "probe_after_gbs") if isinstance(d.get(k), (int, float))]
-    except OSError:
-        pass
+    good, _ = harness_io.read_objects(state)  # a line that is no JSON object is no probe
+    for _, d in good:
+        vals += [d[k] for k in ("probe_before_gbs", "probe_after_gbs") if plausible(d.get(k))]
     vals = sorted(vals[-keep:])
-    return vals[len(vals) // 2] if len(vals) >= 5 else fallback
+    return vals[len(vals) // 2] if len(vals) >= 5 else fallback if plausible(fallback) else None
 
 
 def run(cmd):
@@ -118,8 +155,13 @@ def parse(argv):
     k = argv.index("--")
     opts, cmd = argv[:k], argv[k + 1:]
     d = dict(zip(opts[::2], opts[1::2]))
+    over = "--oversubscribed" in opts
+    opts = [o for o in opts if o != "--oversubscribed"]
+    d = dict(zip(opts[::2], opts[1::2]))
     if len(opts) % 2 or not cmd or not {"--state", "--case", "--repeat"} <= d.keys() or not d["--repeat"].isdigit():
-        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] -- PROGRAM ARGS...")
+        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] "
+                         "[--oversubscribed] -- PROGRAM ARGS...")
+    d["--oversubscribed"] = over
     return d, cmd
 
 
@@ -137,29 +179,40 @@ def main(argv):
         baseline = float(os.environ.get("HPCGI_PROBE_BASELINE_GBS") or 0) or None
     except ValueError:
         baseline = None
-    baseline = recent_baseline(d["--state"], baseline)
+    try:
+        baseline = recent_baseline(d["--state"], baseline)
+    except harness_io.HarnessFileError as e:
+        print(f"timed_run: {e}", file=sys.stderr)
+        return 2
     la, pb = load1(), probe(probe_cmd)
-    t0 = cpu_ticks()
+    rb = runnable_others()
+    t0, p0 = cpu_ticks(), cpu_pressure_us()
     code, wall, own_cpu = run(cmd)
-    t1 = cpu_ticks()
+    t1, p1 = cpu_ticks(), cpu_pressure_us()
+    ra = runnable_others()
     pa, lb = probe(probe_cmd), load1()
-    others = steal = None
+    others = steal = pressure = None
     if t0 and t1 and wall > 0:
-        capacity = wall * (os.sysconf("SC_NPROCESSORS_ONLN") or 1)
+        capacity = wall * CORES
         # /proc/stat counts in ticks: one tick of slack either way, so that a short run is not flagged by rounding
         others = max(0.0, ((t1[0] - t0[0] - 2) / TICK - own_cpu) / capacity)
         steal = max(0.0, (t1[1] - t0[1] - 1) / TICK / capacity)
-    disturbed, reason = judge(others, steal, pb, pa, baseline)
+    if p0 is not None and p1 is not None and wall > 0 and not d["--oversubscribed"]:
+        pressure = max(0.0, (p1 - p0) / 1e6 / wall)
+    disturbed, reason = judge(others, steal, pb, pa, baseline, pressure,
+                              (None, None) if d["--oversubscribed"] else (rb, ra))
     line = {"case": d["--case"], "repeat": int(d["--repeat"]), "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "wall_s": round(wall, 6), "exit_status": code, "load_before": la, "load_after": lb,
             "others_cpu": None if others is None else round(others, 4),
-            "steal": None if steal is None else round(steal, 4), "probe_before_gbs": pb, "probe_after_gbs": pa,
-            "probe_baseline_gbs": baseline, "disturbed": disturbed, "reason": reason}
-    fd = os.open(d["--state"], os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            "steal": None if steal is None else round(steal, 4),
+            "cpu_pressure": None if pressure is None else round(pressure, 4), "runnable_before": rb,
+            "runnable_after": ra, "oversubscribed": d["--oversubscribed"], "probe_before_gbs": pb,
+            "probe_after_gbs": pa, "probe_baseline_gbs": baseline, "disturbed": disturbed, "reason": reason}
     try:
-        os.write(fd, (json.dumps(line, sort_keys=True) + "\n").encode())
-    finally:
-        os.close(fd)
+        harness_io.append_line(d["--state"], json.dumps(line, sort_keys=True))
+    except harness_io.HarnessFileError as e:
+        print(f"timed_run: the run's state was not kept: {e}", file=sys.stderr)
+        return 1 if code == 0 else code
     return code
 
 

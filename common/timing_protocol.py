@@ -22,6 +22,9 @@ import os
 import random
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import harness_io  # noqa: E402
+
 LEVEL = 0.95
 TARGET = 0.05  # the interval's half-width, relative to the median
 CAPPED_LEAST = 5  # a group that misses its interval holds at least this many answers (3 do only with it met)
@@ -70,18 +73,9 @@ def timed_value(rec):
 
 
 def read_lines(path):
-    if not os.path.exists(path):
-        return []
-    out = []
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for line in f:
-            try:
-                d = json.loads(line)
-            except ValueError:
-                continue
-            if isinstance(d, dict):
-                out.append(d)
-    return out
+    """The JSON objects of a records or state file (a line that is none is left out; harness_io names it)."""
+    good, _ = harness_io.read_objects(path)
+    return [d for _, d in good]
 
 
 def group(records_path, state_path, case):
@@ -115,11 +109,7 @@ def decide(records_path, state_path, case, rnd, least, cap, hard=None):
     lo, hi = median_ci(times) if times else (None, None)
     line = json.dumps({"case": case, "stop": stop, "n": len(times), "median_s": median(times) if times else None,
                        "ci_s": [lo, hi] if times else None}, sort_keys=True)
-    fd = os.open(state_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-    try:
-        os.write(fd, (line + "\n").encode())
-    finally:
-        os.close(fd)
+    harness_io.append_line(state_path, line)  # whole or not at all; HarnessFileError says why
     return stop
 
 
@@ -135,7 +125,11 @@ def main(argv):
     except ValueError:
         print("timing_protocol: ROUND, MIN, CAP and HARD must be integers", file=sys.stderr)
         return 2
-    print(decide(records, state, case, rnd, least, cap, hard))
+    try:
+        print(decide(records, state, case, rnd, least, cap, hard))
+    except harness_io.HarnessFileError as e:
+        print(f"timing_protocol: {e}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -10,9 +10,10 @@ All or nothing, and each record once:
   every record valid against common/record.schema.json and made by the node of its machine.json (HPCGI_MACHINE_ID),
   a GPU run naming the node's GPU (backend_info.gpu; the OpenMP runs beside them name none), the state files' lines
   (the GPU's clocks, temperature and throttle reasons beside each run) JSON objects naming their case and repeat.
-- A machine's folder is that machine's only: the archive's machine.json carries the node's machine_id, and an
-  existing results/<label>/ whose machine.json carries no machine_id, or another, is refused (another machine's
-  records, the reference machine's say, are never added to).
+- A machine's folder is that machine's only: an import writes only into a new folder or one an earlier import of
+  the same node made (its machine.json, written by the import, publishes the digest of the node's id, never the id,
+  and names its GPU); any other existing results/<label>/ is refused, the reference machine's above all, whatever id
+  the archive carries.
 - Imports hold a lock on the results folder, so two at once add each record once; a record already there (the same
   JSON, key order and spacing aside), or twice in the archive, is written once.
 - Each file is written whole beside itself and renamed over the old one after every file is on disk (fsync), so a
@@ -28,7 +29,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from analysis.record import loads  # noqa: E402
-from gpukit.archive_check import Refused, check, key, read_archive  # noqa: E402
+from common import machine_label  # noqa: E402
+from gpukit.archive_check import Refused, check, key, read_archive, same_gpu  # noqa: E402
 
 
 def shown(text):
@@ -44,7 +46,10 @@ def _lstat(path):
 
 
 def check_owner(dest, plan):
-    """Refuses dest when it is another machine's folder; True when it exists (and is the archive's node's)."""
+    """Refuses dest unless it is new or an earlier import's of the same node; True when it exists. A folder that no
+    import made (a machine's own, the reference's above all) is never written by an import, whatever id the archive
+    carries: its machine.json may publish an id, which a forged archive could copy. An imported folder's machine.json
+    publishes only the digest of the node's id, which no archive can be made to match without the id itself."""
     st = _lstat(dest)
     if st is None:
         return False
@@ -52,18 +57,29 @@ def check_owner(dest, plan):
         raise Refused(f"{shown(dest)} is no folder (a link or a file): nothing imported")
     why = None
     try:
-        machine = json.loads((dest / "machine.json").read_bytes())
-        mid = machine.get("machine_id") if isinstance(machine, dict) else None
-        if not isinstance(mid, str):
-            why = "its machine.json carries no machine_id"
-        elif mid != plan.machine_id:
-            why = f"its machine.json is machine {shown(mid)[:16]}'s, the archive's node is {plan.machine_id[:16]}"
-    except (OSError, ValueError, RecursionError):
-        why = "it has no readable machine.json"
+        machine = machine_label.read_owner(dest)
+        if not machine:
+            why = "it has no machine.json"
+        elif machine.get("made_by") != "gpu-import":
+            why = "no import made it (it is a machine's own folder)"
+        elif not machine_label.owns(machine, plan.machine_id):
+            why = "its machine.json names another machine (the digest of its id is not the archive node's)"
+        elif not same_gpu(machine.get("gpu"), json.loads(plan.machine).get("gpu")):
+            why = f"its GPU is {shown(machine.get('gpu'))[:60]!r}, not the archive's"
+    except ValueError as e:
+        why = str(e)
     if why:
         raise Refused(f"{shown(dest)}/ belongs to another machine ({why}): nothing imported; give the node a label of "
                       f"its own (MACHINE=<label> gpu-kit/run on the node) and import that archive")
     return True
+
+
+def published(plan):
+    """The machine.json an import writes: the node's, with the digest of its id instead of the id, made by gpu-import."""
+    machine = json.loads(plan.machine)
+    machine["machine_id_sha256"] = machine_label.digest(machine.pop("machine_id"))
+    machine["made_by"] = "gpu-import"
+    return (json.dumps(machine, indent=1, sort_keys=True) + "\n").encode()
 
 
 def existing(target):
@@ -106,7 +122,7 @@ def changes(plan, dest, dest_exists):
         if new:
             files.append((target, old + "".join(line + "\n" for line in new).encode()))
     if not dest_exists:
-        files.append((dest / "machine.json", plan.machine))
+        files.append((dest / "machine.json", published(plan)))
     return folders, files, added, kept, states
 
 

@@ -35,7 +35,8 @@ RRV_FILES = ("room2.xml", "room3.xml", "teapot.obj", "COPYING")
 TESTS = ("tests/conftest.py", "tests/integration/test_radiosity_gpu.py")
 DRIVER = ("gpukit/__init__.py", "gpukit/libs.py", "gpukit/cases.py", "gpukit/checks.py", "gpukit/plan.py",
           "gpukit/probe.py", "gpukit/node.py", "gpukit/archive.py", "gpukit/driver.py", "gpukit/summary.py",
-          "gpukit/gpu_state.py", "gpukit/device_run.py", "gpukit/plan_checks.py", "gpukit/children.py", "common/machine_label.py", "common/backend_facts.py")
+          "gpukit/gpu_state.py", "gpukit/device_run.py", "gpukit/plan_checks.py", "gpukit/children.py",
+          "common/machine_label.py", "common/harness_io.py", "common/backend_facts.py")
 PRESETS = ("paper", "ci")  # ci: the tiny cases (gpu-kit/run --preset ci: a smoke run in seconds)
 
 

@@ -93,6 +93,8 @@ def every_record_validates(tmp_path_factory):
         return
     bad = []
     for f in sorted(tmp_path_factory.getbasetemp().rglob("*.jsonl")):
+        if not f.is_file() or f.is_symlink():  # a test's FIFO or link where a records file belongs is no records file
+            continue
         for n, line in enumerate(f.read_text(errors="replace").splitlines(), 1):
             try:
                 rec = json.loads(line)

@@ -135,7 +135,7 @@ void check_given(SolveArgs& a, const GivenOptions& g) {
 
 void add_solve(CLI::App& app, SolveArgs& a) {
   CLI::App* cmd = app.add_subcommand("solve", "solve for the radiosity of a scene whose form factors are in a file");
-  cmd->footer(hpcgi::exit_status_help());
+  cmd->footer(hpcgi::exit_status_help("--no-verify"));
   add_scene_options(cmd, a);
   add_memory_option(cmd, a);
   cmd->add_option("--ff", a.ff, "form-factor file written by `bin/radiosity formfactors` for this scene")

@@ -8,6 +8,7 @@
 
 #include "common/errors.hpp"
 #include "common/memory.hpp"
+#include "common/one_line.hpp"
 
 namespace radiosity::relight {
 namespace {
@@ -64,8 +65,22 @@ nlohmann::json parse_frames_file(const std::string& path) {
       throw hpcgi::UsageError(path + ": a frames file of more than " + hpcgi::format_bytes(double(kMaxFramesFileBytes)) +
                             " (at most " + std::to_string(kMaxFrames) + " frames)");
   nlohmann::json doc;
+  // A key given twice in one object is refused: the parser would keep the last, silently (issue 48).
+  std::vector<std::vector<std::string>> keys;
+  const auto once = [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using E = nlohmann::json::parse_event_t;
+    if (event == E::object_start) keys.emplace_back();
+    if (event == E::object_end && !keys.empty()) keys.pop_back();
+    if (event == E::key && !keys.empty()) {
+      const std::string k = parsed.get<std::string>();
+      if (std::find(keys.back().begin(), keys.back().end(), k) != keys.back().end())
+        throw hpcgi::UsageError(path + ": the key '" + hpcgi::one_line(k, 80) + "' is given twice in one object");
+      keys.back().push_back(k);
+    }
+    return true;
+  };
   try {
-    doc = nlohmann::json::parse(text);
+    doc = nlohmann::json::parse(text, once);
   } catch (const nlohmann::json::parse_error& e) {
     std::string why = e.what();  // "[json.exception.parse_error.101] parse error at line L, column C: WHY"
     const size_t col = why.find("column");
@@ -99,8 +114,9 @@ struct FrameNames {
 // fields keep their values from the frame before).
 void read_lights(const nlohmann::json& value, const FrameNames& s, Frame& state) {
   if (!value.is_object()) throw hpcgi::UsageError("\"lights\" must be an object {NAME: {\"intensity\", \"rgb\"}}");
-  for (const auto& [name, setting] : value.items()) {
-    const auto it = s.light_index.find(name);
+  for (const auto& [key, setting] : value.items()) {
+    const std::string name = hpcgi::one_line(key, 80);  // as shown: a NUL or an escape in the file's key stays visible
+    const auto it = s.light_index.find(key);
     if (it == s.light_index.end())
       throw hpcgi::UsageError("unknown light '" + name + "' (lights: " + name_list(s.lights) + ")");
     if (!setting.is_object())
@@ -109,7 +125,7 @@ void read_lights(const nlohmann::json& value, const FrameNames& s, Frame& state)
     for (const auto& [field, v] : setting.items()) {
       if (field == "intensity") ls.intensity = number(v, "light '" + name + "' intensity");
       else if (field == "rgb") ls.colour = triple(v, "light '" + name + "' rgb");
-      else throw hpcgi::UsageError("light '" + name + "': unknown key '" + field + "' (intensity, rgb)");
+      else throw hpcgi::UsageError("light '" + name + "': unknown key '" + hpcgi::one_line(field, 40) + "' (intensity, rgb)");
     }
   }
 }
@@ -134,8 +150,9 @@ void read_scale(const nlohmann::json& v, const std::string& what, size_t e, cons
 // A frame's "reflectivity": {NAME: [r, g, b] or {"scale": f}}, into rho (the entities not named keep theirs).
 void read_reflectivity(const nlohmann::json& value, const FrameNames& s, FrameReflectivity& rho) {
   if (!value.is_object()) throw hpcgi::UsageError("\"reflectivity\" must be an object {NAME: [r, g, b]}");
-  for (const auto& [name, v] : value.items()) {
-    const auto it = s.entity_index.find(name);
+  for (const auto& [key, v] : value.items()) {
+    const std::string name = hpcgi::one_line(key, 80);  // as shown: a NUL or an escape in the file's key stays visible
+    const auto it = s.entity_index.find(key);
     if (it == s.entity_index.end())
       throw hpcgi::UsageError("unknown entity '" + name + "' (entities: " + name_list(s.named) + ")");
     const std::string what = "reflectivity of '" + name + "'";

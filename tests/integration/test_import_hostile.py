@@ -96,9 +96,22 @@ def test_an_archive_never_writes_into_another_machines_folder(tmp_path):
     refused(importer(a, results), "is no folder")
     dest.unlink()
     other.rename(dest)
-    p = importer(a, results)  # the node's own folder: its records are added
+    # issue 48: a folder that publishes the archive's own id, as the reference's machine.json published its id, which
+    # a forged archive copied: no import made it, so no import writes into it (Table 4.1's N = 256 cell stays)
+    before = tree(tmp_path)
+    refused(importer(a, results), "no import made it")
+    assert tree(tmp_path) == before
+    # an earlier import's folder of the same node (the digest of its id, made by gpu-import): its records are added
+    from common import machine_label
+    (dest / "machine.json").write_text(json.dumps({"label": LABEL, "gpu": "TEST fake GPU", "made_by": "gpu-import",
+                                                   "machine_id_sha256": machine_label.digest(NODE)}))
+    p = importer(a, results)
     assert p.returncode == 0, p.stderr
     assert len(records_in(results)) == 3
+    # the same folder, the archive of another GPU: refused
+    (dest / "machine.json").write_text(json.dumps({"label": LABEL, "gpu": "NVIDIA A100", "made_by": "gpu-import",
+                                                   "machine_id_sha256": machine_label.digest(NODE)}))
+    refused(importer(a, results), "its GPU is")
 
 
 def test_make_gpu_import_and_plots_take_names_as_arguments_never_as_shell(tmp_path):

@@ -1,6 +1,7 @@
 """Records that belong to one machine (issue 31): two machines whose hardware looks the same get two labels, a
 machine folder belongs to the machine named in its machine.json, and nothing but `make regenerate-reference` writes
 into another machine's folder (the reference's committed one above all)."""
+import hashlib
 import json
 import re
 import os
@@ -53,7 +54,9 @@ def test_another_machines_folder_is_refused_in_one_line_and_left_as_it_was(tmp_p
     a = run([ROOT / "slurm" / "run-case", "formfactors", "0"], env={**base, **machine(tmp_path, "a"), "MACHINE": "lab"})
     assert a.returncode == 0, a.stderr
     owner = json.loads((res / "lab" / "machine.json").read_text())
-    assert owner["machine_id"] == run(LABEL + ["--id"], env=machine(tmp_path, "a")).stdout.strip()
+    mid = run(LABEL + ["--id"], env=machine(tmp_path, "a")).stdout.strip()
+    # machine.json publishes the digest of the id, never the id (issue 48: a published id can be copied)
+    assert owner["machine_id_sha256"] == hashlib.sha256(mid.encode()).hexdigest() and "machine_id" not in owner
     # a copy of the reference's committed folder: its machine.json and one records file
     ref = res / REFERENCE
     (ref / "table41").mkdir(parents=True)

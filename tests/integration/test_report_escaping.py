@@ -92,6 +92,8 @@ def test_report_from_hostile_records_shows_them_as_text(tmp_path):
     assert p.returncode == 0, p.stderr
     p = run([sys.executable, "-m", "analysis", "report", "ci", "--machine", "good"], env=env, cwd=ROOT, timeout=300)
     assert p.returncode == 0, p.stderr
+    p = run([sys.executable, "-m", "analysis", "machines", "ci"], env=env, cwd=ROOT, timeout=300)
+    assert p.returncode == 0, p.stderr
     # the unreadable machine.json is named on stderr and in MACHINES.md; the good machine is still there
     assert "onerror=alert(5)" in p.stderr and "machine.json" in p.stderr
     report = (res / "report" / "good" / "REPORT-ci.md").read_text()
