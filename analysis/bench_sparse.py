@@ -3,7 +3,7 @@ bandwidth against the read sweep measured next to it; and issue 17's and issue 3
 import pandas as pd
 
 from analysis import consistency
-from analysis.bench_records import ci_of, limit_next_to, median_of, on_host
+from analysis.bench_records import Interval, ci_of, limit_next_to, median_of, on_host, target
 from analysis.records import load
 
 # Issue 17's: CSR float32 on room3 within 1.25x of its matrix bytes at the read-sweep bandwidth next to it; the
@@ -41,14 +41,13 @@ def sparse_rows(preset, host, stream):
             read = [limit_next_to(stream, r.iloc[[i]], "perf.read_GBps") for i in range(len(r))]
             t = median_of(r, "times_s.per_iteration")
 
-            def over_at(bws):  # the median over the repeats of the step's time over its bytes at each one's bandwidth
-                return float(pd.Series([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], bws)])
-                             .median())
+            def over_at(bws):  # the step's time over its bytes at each repeat's bandwidth: median and interval
+                return Interval.of([ti / (nbytes / (bw * 1e9)) for ti, bw in zip(r["times_s.per_iteration"], bws)])
             over = over_at(read)
             own_bw = list(r[OWN_SWEEP]) if own else None
             per[(scene, storage, values)] = (t, over, float(pd.Series(read).median()),
                                              over_at(own_bw) if own else None,
-                                             float(pd.Series(own_bw).median()) if own else None)
+                                             float(pd.Series(own_bw).median()) if own else None, r)
             consistency.quote(f"{scene}: one Jacobi step, OpenMP, float (ms)",
                               f"make bench ({preset}), sparse table, {scene} {storage} {values}",
                               1e3 * r["times_s.per_iteration"], r)
@@ -60,26 +59,30 @@ def sparse_rows(preset, host, stream):
                         float(r["result.kept"].iloc[0]) if storage != "dense" else None,
                         "ms per step": 1e3 * t, "95% interval (ms)": ci_of(r, "times_s.per_iteration", 1e3),
                         "GB/s": nbytes / t / 1e9,
-                        "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over,
+                        "read sweep next to it": float(pd.Series(read).median()), "time / its limit": over.value,
                         "its own read sweep": per[(scene, storage, values)][4],
-                        "time / its own limit": per[(scene, storage, values)][3], "repeats": len(r)})
+                        "time / its own limit": own_over.value if (own_over := per[(scene, storage, values)][3])
+                        else None, "repeats": len(r)})
     csr, dense = per.get(("room3.xml", "csr", "float32")), per.get(("room3.xml", "dense", "float32"))
     if csr:
-        targets.append(f"CSR float32 room3: {csr[1]:.2f}x its matrix bytes at the read sweep next to it "
-                       f"({csr[2]:.1f} GB/s; target <= {CSR_SLACK}x): {'met' if csr[1] <= CSR_SLACK else 'NOT met'}")
-    for (scene, storage, values), (_, over, bw, own_over, own_bw) in per.items():
+        targets.append(target(f"CSR float32 room3: its time over its matrix bytes at the read sweep next to it "
+                              f"({csr[2]:.1f} GB/s)", csr[1], CSR_SLACK, "less", "x"))
+    for (scene, storage, values), (_, over, bw, own_over, own_bw, _r) in per.items():
         if scene == "room3.xml" and storage != "dense":
             if own_over is not None:
                 over, bw, where = own_over, own_bw, "its own read sweep (the same arrays, read in the same process)"
             else:
                 where = "the read sweep next to it"
-            targets.append(f"{storage} {values} room3: {over:.2f}x its matrix bytes at {where} "
-                           f"({bw:.1f} GB/s; target <= {SPARSE_SLACK}x): {'met' if over <= SPARSE_SLACK else 'NOT met'}")
+            targets.append(target(f"{storage} {values} room3: its time over its matrix bytes at {where} "
+                                  f"({bw:.1f} GB/s)", over, SPARSE_SLACK, "less", "x"))
     for storage, values in (("runs", "float16"), ("runs", "float32"), ("compressed", "float16"), ("compressed", "float32")):
         comp = per.get(("room3.xml", storage, values))
         if comp and dense:
-            x = dense[0] / comp[0]
-            targets.append(f"{storage} {values} room3: {x:.2f}x faster per Jacobi step than dense float32 "
-                           f"({1e3 * comp[0]:.2f} against {1e3 * dense[0]:.2f} ms; target >= {COMPRESSED_VS_DENSE:g}x)"
-                           f": {'met' if x >= COMPRESSED_VS_DENSE else 'NOT met'}")
+            iv = Interval.paired(dense[5], comp[5], "times_s.per_iteration")
+            if iv is None:
+                x = dense[0] / comp[0]
+                iv = Interval(x, x, x, 1, "ratio of medians, not paired")
+            targets.append(target(f"{storage} {values} room3: times faster per Jacobi step than dense float32 "
+                                  f"({1e3 * comp[0]:.2f} against {1e3 * dense[0]:.2f} ms)", iv, COMPRESSED_VS_DENSE,
+                                  "greater", "x"))
     return out, targets

@@ -14,13 +14,13 @@ def describe(label):
     """What machine.json (written by the runner) says of a machine, else what its records' provenance says."""
     d = machine_label.read_owner(machine_dir(label))  # ValueError where it is damaged or no regular file
     if d:
-        return d.get("host"), d.get("cpu_model"), d.get("cpus_online"), d.get("gpu")
+        return d.get("host"), d.get("cpu_model"), d.get("cpus_online"), d.get("gpu"), d.get("caches")
     for exp in ("table41", "table42", "formfactors", "bench-stream"):
         df = load(exp)
         if not df.empty:
             last = df.sort_values("provenance.utc").iloc[-1]
             gpu = last.get("backend_info.gpu") if "backend_info.gpu" in df else None
-            return last["provenance.host"], last["provenance.cpu_model"], last["provenance.cpus_online"], gpu
+            return last["provenance.host"], last["provenance.cpu_model"], last["provenance.cpus_online"], gpu, None
     return None, None, None, None
 
 
@@ -54,15 +54,40 @@ def headline(preset):
     return row
 
 
+def claims_table(preset, labels):
+    """Every claim part, one row each: its paired ratio [interval] and verdict on each machine (a machine's folder
+    is one run of it: a second run of one machine is a folder of its own)."""
+    from analysis import claims
+    by = {}
+    order = []
+    for label in labels:
+        with on(label):
+            try:
+                parts = claims.all_claims(preset)
+            except (ValueError, KeyError, TypeError) as e:
+                print(f"analysis: machine {label}'s claims left out of MACHINES.md: {e}", file=sys.stderr)
+                continue
+        for r in parts:
+            k = (r["claim"], r["part"])
+            if k not in by:
+                by[k] = {}
+                order.append(k)
+            by[k][label] = (f"{r['verdict']}: {r['ratio']:.3g} [{r['low']:.3g}, {r['high']:.3g}] n={r['n']}"
+                            if r["n"] else r["verdict"])
+    rows = [{"claim": c, "part": p, **{label: by[(c, p)].get(label, "—") for label in labels}} for c, p in order]
+    return md_table(pd.DataFrame(rows)) if rows else "none"
+
+
 def write(preset):
     ref = reference()
     rows, broken = [], []
     for label in machines():
         with on(label):
             try:
-                host, cpu, cpus, gpu = describe(label)
+                host, cpu, cpus, gpu, cache = describe(label)
                 row = {"machine": label + (" (reference)" if label == ref else ""), "host": host, "CPU": cpu,
-                       "CPUs": cpus, "GPU": gpu or "none", **headline(preset)}
+                       "CPUs": cpus, "caches": ", ".join(f"{k} {v}" for k, v in sorted((cache or {}).items())) or "—",
+                       "GPU": gpu or "none", **headline(preset)}
             except (ValueError, KeyError, TypeError) as e:  # one machine's bad folder never hides the others
                 print(f"analysis: machine {label} left out of MACHINES.md: {e}", file=sys.stderr)
                 broken.append(f"- {md(label)}: left out, {md(e)}")
@@ -81,7 +106,14 @@ def write(preset):
         "Table 4.1 at N = 1024 (setup + solve of its fastest plain-CG column, as the report ran it; MG-PCG is in the "
         "report's own table), Table 4.2 on scene 3 (RRV's room3.xml, OpenMP, "
         "to 1e-6), one Jacobi step of room3 with F in float32 (`make bench`, our fastest layout) and the STREAM triad "
-        f"(`bin/stream`, `make bench`). Each is median [95% interval of the median] n=runs; records used: the records "
-        "of Tables 4.1-4.5 the tables use (from clean commits, not disturbed). Written by `make report` from the "
-        f"records.\n\n{body}\n")
+        f"(`bin/stream`, `make bench`). Each is median [interval of the median] n=runs; records used: the records "
+        "of Tables 4.1-4.5 the tables use (from clean commits, not disturbed). Written by `make machines` from the "
+        f"records.\n\n{body}\n\n"
+        "## The claims on every machine\n\n"
+        "Each claim part's paired ratio [distribution-free interval] n=pairs and its verdict by the one rule "
+        "(analysis/verdict.py; each machine's report says its margin), on each machine folder (one run each; a "
+        "second run of one machine has a folder of its own). Where a claim differs between machines, compare their "
+        "bandwidth probes, cores and caches (the columns above and each report's provenance): "
+        "`python -m analysis.reproducibility --claims A B` names the parts that differ.\n\n"
+        f"{claims_table(preset, [r['machine'].replace(' (reference)', '') for r in rows])}\n")
     return out

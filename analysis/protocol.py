@@ -133,6 +133,7 @@ def machine_state(df):
         return df
     df = df.copy()
     df["protocol.disturbed"], df["protocol.reason"], df["protocol.stop"] = False, None, None
+    df["protocol.block"] = None  # the block whose rounds the run was in (slurm/run-local: the pairs of a claim)
     case = df["provenance.env.HPCGI_CASE"] if "provenance.env.HPCGI_CASE" in df else pd.Series(None, index=df.index)
     rep = df["provenance.env.HPCGI_REPEAT"] if "provenance.env.HPCGI_REPEAT" in df else pd.Series(None, index=df.index)
     for f, idx in df.groupby("file").groups.items():
@@ -142,9 +143,11 @@ def machine_state(df):
             continue
         runs, stops = st
         for i in idx:
-            s = runs.get((case[i], int(rep[i]))) if pd.notna(rep[i]) else None
+            s = runs.get((case[i], int(rep[i]))) if str(rep[i]).isdigit() else None
             if s and s.get("disturbed"):
                 df.at[i, "protocol.disturbed"], df.at[i, "protocol.reason"] = True, s.get("reason")
+            if s and isinstance(s.get("block"), str):
+                df.at[i, "protocol.block"] = s["block"]
             df.at[i, "protocol.stop"] = stops.get(case[i])
         COUNTS[f]["disturbed"] = int(df.loc[idx, "protocol.disturbed"].sum())
     # A developer's look (--all-records) keeps the disturbed runs too, still counted under each table.

@@ -22,21 +22,8 @@ def run_time(df):
 
 
 def solves(experiment, preset):
-    """The solves of an experiment that are an answer (exit status 0); the others are named by threads_note. Table
-    4.3's OpenMP column is Table 4.2's Jacobi (AOS, openmp: the same command, measured once) where Table 4.3 has no
-    OpenMP runs of its own (records made before the case lists said so have)."""
-    df = _solves(experiment, preset)
-    if experiment == "table43" and (df.empty or "openmp" not in set(df["column"])):
-        t42 = _solves("table42", preset)
-        if not t42.empty:
-            jac = t42[(t42["params.method"] == "jacobi") & (t42["params.backend"] == "openmp") &
-                      (t42["params.layout"] == "aos")]
-            df = pd.concat([df, jac]) if not df.empty else jac.copy()
-            df.attrs["no_answer"] = " ".join(filter(None, (df.attrs.get("no_answer"), t42.attrs.get("no_answer"))))
-    return df
-
-
-def _solves(experiment, preset):
+    """The solves of an experiment that are an answer (exit status 0); the others are named by threads_note. Every
+    column comes from the experiment's own records: no table borrows another's (issue 50)."""
     df = load(experiment, preset)
     if df.empty:
         return df

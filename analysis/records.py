@@ -215,21 +215,27 @@ def paper_table(name):
 
 
 def median_ci(values, level=0.95):
-    """The bootstrap 95% interval of the median (fixed seed: the same records give the same table): the timing
-    protocol's one definition (common/timing_protocol.py), by which the runner stops repeating a case."""
+    """The distribution-free interval of the median (order statistics): the timing protocol's one definition
+    (common/timing_protocol.py), by which the runner stops repeating a case."""
     return protocol.timing_protocol.median_ci(list(np.asarray(values, dtype=float)), level=level)
 
 
+def coverage(n, level=0.95):
+    """The true coverage of median_ci's interval for n values (below `level` for fewer than 6)."""
+    return protocol.timing_protocol.coverage(int(n), level)
+
+
 def summarise(df, keys, value, ci_from=3):
-    """Median of `value` over repeats per `keys`, with min, max, repeat count, from `ci_from` repeats on a 95%
-    bootstrap confidence interval of the median, and `capped` (analysis/protocol.py: the runner stopped at its cap,
-    or the interval is not within +-5% of the median)."""
+    """Median of `value` over repeats per `keys`, with min, max, repeat count, from `ci_from` repeats on the
+    distribution-free interval of the median with its true coverage (95%, or what the count allows), and `capped`
+    (analysis/protocol.py: the runner stopped at its cap, or the interval is not within +-5% of the median)."""
     rows = []
     for k, g in df.groupby(keys, dropna=False):
         v = g[value].dropna()
         row = dict(zip(keys, k if isinstance(k, tuple) else (k,)))
         row.update(median=v.median(), min=v.min(), max=v.max(), repeats=len(v))
         row["ci_low"], row["ci_high"] = median_ci(v) if len(v) >= ci_from else (np.nan, np.nan)
+        row["coverage"] = coverage(len(v)) if len(v) >= ci_from else np.nan
         stops = g["protocol.stop"].dropna() if "protocol.stop" in g else ()
         row["capped"] = protocol.capped(row["median"], row["ci_low"], row["ci_high"], stops)
         rows.append(row)
@@ -237,12 +243,15 @@ def summarise(df, keys, value, ci_from=3):
 
 
 def cell(row, fmt=".4g"):
-    """A timing cell: the median, its 95% interval and n ("capped" where the group missed the +-5% target), from a
-    summarise row (anything with median, ci_low, ci_high, repeats, capped); "—" where there is none."""
+    """A timing cell: the median, its interval (with its true coverage where that is below 95%: 75% for 3 runs) and n
+    ("capped" where the group missed the +-5% target), from a summarise row (anything with median, ci_low, ci_high,
+    repeats, capped); "—" where there is none."""
     if row is None or not np.isfinite(row["median"]):
         return "—"
     lo, hi = row["ci_low"], row["ci_high"]
-    ci = f" [{lo:{fmt}}, {hi:{fmt}}]" if np.isfinite(lo) and np.isfinite(hi) else " [no interval]"
+    cov = row.get("coverage", np.nan)
+    ci = (f" [{lo:{fmt}}, {hi:{fmt}}]" + (f" {cov:.0%}" if np.isfinite(cov) and cov < 0.95 else "")
+          if np.isfinite(lo) and np.isfinite(hi) else " [no interval]")
     return f"{row['median']:{fmt}}{ci} n={int(row['repeats'])}" + (" capped" if row.get("capped") else "")
 
 

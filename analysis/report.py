@@ -44,6 +44,19 @@ def experiments(preset):
     return table, (pd.concat(used, ignore_index=True) if used else pd.DataFrame())
 
 
+def drift_sentence(preset):
+    """How far this machine's times moved between its committed runs of different hours (analysis/reproducibility)."""
+    from analysis import reproducibility
+    runs = reproducibility.same_machine_runs(machine(), preset)
+    d = reproducibility.drift(preset)
+    if d is None:
+        return ("This machine has one committed run of this preset, so how far its times move from one hour to "
+                "another is not measured here; the claims take the margin of 5%.")
+    return (f"Between this machine's {len(runs)} committed runs of this preset ({md(', '.join(runs))}), the median of "
+            f"a timed group moved by {d:.1%} (the median over the groups of |change|): a time here is that much of a "
+            "time on another day; the claims' ratios, paired in the same rounds, travel better.")
+
+
 def how_to_read(preset, df, differ):
     """The section that says what the report is made of: records, machine, state, protocol, commit, exclusions."""
     out = ["## How to read this report", "",
@@ -55,11 +68,13 @@ def how_to_read(preset, df, differ):
               f"The reference machine, beside which its numbers are set: {md(reference() or 'none')}."),
            "- **The protocol** (docs: Hoefler and Belli, SC15; DESIGN.md \"Measurement protocol\"): records from a "
            "working tree with uncommitted changes or from a commit not in this repository are left out; a run the "
-           "runner flagged as disturbed (load, bandwidth probe) is left out of the medians; every timing is the "
-           "median with the bootstrap 95% interval of the median and n, and a group whose interval is not within "
-           "+-5% of its median (or that stopped at its cap) is marked capped; claims are decided by the rule in "
-           "\"Claims of the report\". Runs that are no answer (exit status 3, 4, 5) are left out and named "
-           "under their table."]
+           "runner flagged as disturbed (CPU pressure, others' CPU share, steal, bandwidth probe) is left out of the "
+           "medians; every timing is the median with the distribution-free interval of the median, its true coverage "
+           "where the count cannot reach 95%, and n; a group whose interval is not within +-5% of its median (or that "
+           "stopped at its cap) is marked capped; claims are decided by the rule in \"Claims of the report\". Runs "
+           "that are no answer (exit status 3, 4, 5) are left out and named under their table.",
+           "- **Absolute times carry their condition**: an interval describes the minutes it was measured in. "
+           + drift_sentence(preset)]
     if df.empty:
         return out + ["- No records used: run `make reproduce PRESET=" + md(preset) + "`.", ""]
     for col, what in (("provenance.host", "host"), ("provenance.cpu_model", "CPU"), ("provenance.cpus_online", "CPUs"),
@@ -70,11 +85,10 @@ def how_to_read(preset, df, differ):
             out.append(f"- {what}: {md(', '.join(vals)) if vals else 'none'}")
     if "backend_info.gpu" not in df.columns:
         out.append("- GPU: none used (no GPU records)")
-    if "provenance.loadavg_1min" in df.columns:
-        busy = int((df["provenance.loadavg_1min"] > df["provenance.cpus_online"] + 0.5).sum())
-        out.append(f"- the machine's state: {busy} of the {len(df)} records used by the report's tables were "
-                   "taken while the 1-minute load average exceeded the core count (their times are upper bounds); "
-                   f"UTC {md(df['provenance.utc'].min())} to {md(df['provenance.utc'].max())}")
+    if "provenance.utc" in df.columns:
+        out.append(f"- the hours the records used were made in: UTC {md(df['provenance.utc'].min())} to "
+                   f"{md(df['provenance.utc'].max())}; a run the runner flagged as disturbed (other processes' CPU "
+                   "share, CPU pressure, tasks runnable beside it, steal, the bandwidth probes) is not among them")
     out += [f"- the same quantity quoted with different settings, or too few runs to check: {md(d)}" for d in differ]
     return out + [""]
 
@@ -107,28 +121,34 @@ def image(name, preset, alt):
     return f"![{alt}]({os.path.relpath(f, report_dir())})\n" if f.exists() else f"({alt}: no records used)\n"
 
 
-RULE = ("Each claim is decided part by part on this machine's records by one rule: the bootstrap 95% interval of "
-        "the ratio of medians (2000 resamples of each side, fixed seed) against 1. Above 1 where the claim says "
-        "\"slower\" or \"more\": *confirmed*; below: *refuted*; holding 1: *not separated* (the intervals "
-        "overlap). *not reproduced*: our setting differs from the report's in the quantity that decides the claim "
-        "(the iteration counts), so the verdict says nothing of the claim's mechanism. *not run*: this machine cannot "
-        "run it (no GPU); the row says what would decide it. Numbers: ours as ratio [95% interval] (n = runs of each "
-        "side), the report's ratio of its published times beside.")
+RULE = ("Each claim is decided part by part on this machine's records by one rule (analysis/verdict.py): A and B "
+        "ran in the same rounds (the order reversed from round to round), and the part is decided on the per-round "
+        "ratios A_r / B_r: their median and its distribution-free interval (order statistics, exact for any "
+        "distribution; its true coverage is given, and is below 95% where there are fewer than 6 pairs). With a "
+        "margin m (5%, or this machine's run-to-run drift where larger): *confirmed* when the interval lies beyond "
+        "1 + m on the side the claim says, *refuted* when it lies beyond it on the other side, *equivalent* when it "
+        "lies within [1/(1+m), 1+m], *undecided* otherwise; *not run* where this machine has no runs of a side (the "
+        "row says what would decide it). What our setting changes (our iteration counts against the report's) is "
+        "said beside the verdict, never instead of it. The report's own ratio of its published times stands beside "
+        "ours.")
 
 
 def claims(preset):
     """The claims table: this machine's verdicts part by part, and for any other machine the reference's."""
+    from analysis import claims as claims_pkg
     ref = reference()
     other = ref if ref and ref != machine() else None
     rows = claim_rows(preset)
-    head = "| claim | part | verdict | the numbers that decide it |" + (f" reference {md(other)} |" if other else "")
-    out = [RULE, "", head, "|---|---|---|---|" + ("---|" if other else "")]
+    m = claims_pkg.margin()
+    head = "| claim | part | verdict | the numbers that decide it | beside the verdict |" + \
+        (f" reference {md(other)} |" if other else "")
+    out = [RULE, "", f"The margin on this machine: {m:.1%}.", "", head, "|---|---|---|---|---|" + ("---|" if other else "")]
     theirs = []
     if other:
         with on(other):
             theirs = claim_rows(preset)
-    for i, r in enumerate(rows):
-        line = f"| {md(r['claim'])} | {md(r['part'])} | {r['verdict']} | {md(r['numbers'])} |"
+    for r in rows:
+        line = f"| {md(r['claim'])} | {md(r['part'])} | {r['verdict']} | {md(r['numbers'])} | {md(r['note'])} |"
         if other:
             match = [t["verdict"] for t in theirs if t["claim"] == r["claim"] and t["part"] == r["part"]]
             line += f" {match[0] if match else '—'} |"

@@ -134,11 +134,26 @@ def gpu_model():
     return names[0] if names else None
 
 
+def caches():
+    """{"l2": "1024K", "l3": "32768K", ...} of the first CPU, as /sys says them (sizes differ between VMs of one CPU
+    model, and the claims that depend on a cache differ with them)."""
+    out = {}
+    base = Path("/sys/devices/system/cpu/cpu0/cache")
+    for idx in sorted(base.glob("index*")) if base.is_dir() else []:
+        try:
+            level, kind = (idx / "level").read_text().strip(), (idx / "type").read_text().strip()
+            if kind != "Instruction":
+                out[f"l{level}" + ("d" if kind == "Data" else "")] = (idx / "size").read_text().strip()
+        except OSError:
+            continue
+    return out
+
+
 def describe():
     """This machine: its label (MACHINE when set) and what the label is made of."""
     host = socket.gethostname()
     d = {"host": host, "cpu_model": cpu_model(), "cpus_online": os.sysconf("SC_NPROCESSORS_ONLN"), "gpu": gpu_model(),
-         "machine_id": machine_id()}
+         "machine_id": machine_id(), "caches": caches()}
     d["derived_label"] = make(d["host"], d["cpu_model"], d["cpus_online"], d["gpu"], d["machine_id"])
     given = os.environ.get("MACHINE", "").strip()
     d["label"] = check(given) if given else d["derived_label"]

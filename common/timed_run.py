@@ -2,12 +2,16 @@
 """Runs one timed run of a case and writes the machine's state beside its record (the timing protocol,
 common/timing_protocol.py): slurm/run-case calls it for every repeat of a timed case.
 
-    common/timed_run.py --state FILE --case CASE --repeat R [--probe "CMD"] -- PROGRAM ARGS...
+    common/timed_run.py --state FILE --case CASE --repeat R [--probe "CMD"] [--block NAME] [--oversubscribed]
+                        -- PROGRAM ARGS...
 
 It runs PROGRAM with its arguments, its standard streams and its exit status passed through (a program killed by a
 signal gives 128 + the signal, as a shell reports it), and appends one JSON line to FILE:
-  {"case", "repeat", "utc", "wall_s", "load_before", "load_after", "others_cpu", "steal",
-   "probe_before_gbs", "probe_after_gbs", "disturbed", "reason"}
+  {"case", "repeat", "utc", "wall_s", "load_before", "load_after", "others_cpu", "steal", "cpu_pressure",
+   "runnable_before", "runnable_after", "oversubscribed", "probe_before_gbs", "probe_after_gbs", "disturbed",
+   "reason", "block"}
+- block: the block whose rounds the run was in (slurm/run-local runs the experiments a claim compares together, so
+  that the runs of one round of one block are a claim's pairs: analysis/verdict.py);
 - others_cpu: the share of the machine's CPU time used by anything but this run while it ran (/proc/stat's busy
   time less the run's own, from wait4), steal: the share stolen by the hypervisor;
 - probe_*: a short memory-bandwidth probe (--probe, bin/stream's triad in GB/s) just before and just after;
@@ -158,8 +162,10 @@ def parse(argv):
     over = "--oversubscribed" in opts
     opts = [o for o in opts if o != "--oversubscribed"]
     d = dict(zip(opts[::2], opts[1::2]))
+    if not set(d) <= {"--state", "--case", "--repeat", "--probe", "--block"}:
+        raise ValueError(f"unknown option {sorted(set(d) - {'--state', '--case', '--repeat', '--probe', '--block'})[0]}")
     if len(opts) % 2 or not cmd or not {"--state", "--case", "--repeat"} <= d.keys() or not d["--repeat"].isdigit():
-        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] "
+        raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] [--block NAME] "
                          "[--oversubscribed] -- PROGRAM ARGS...")
     d["--oversubscribed"] = over
     return d, cmd
@@ -207,7 +213,8 @@ def main(argv):
             "steal": None if steal is None else round(steal, 4),
             "cpu_pressure": None if pressure is None else round(pressure, 4), "runnable_before": rb,
             "runnable_after": ra, "oversubscribed": d["--oversubscribed"], "probe_before_gbs": pb,
-            "probe_after_gbs": pa, "probe_baseline_gbs": baseline, "disturbed": disturbed, "reason": reason}
+            "probe_after_gbs": pa, "probe_baseline_gbs": baseline, "disturbed": disturbed, "reason": reason,
+            "block": d.get("--block") or None}
     try:
         harness_io.append_line(d["--state"], json.dumps(line, sort_keys=True))
     except harness_io.HarnessFileError as e:

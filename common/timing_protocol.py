@@ -2,24 +2,33 @@
 """The timing protocol's one definition of a group's spread and of when a timed case has run enough (Hoefler and
 Belli, SC15: a non-parametric interval of the median, repeated until it is tight, disturbed runs kept out).
 
+The interval of a median is distribution-free: the order statistics [x_(k), x_(n+1-k)] of the sorted values, k the
+largest whose coverage, 1 - 2 P(Binomial(n, 1/2) <= k - 1), is at least the level asked (the sign test's interval;
+scipy.stats.binom gives the same tail). It holds for any distribution of the runs, skewed or with outliers, and its
+coverage is exact: where n is too small for the level ([min, max] of 3 runs covers the median 75% of the time, of 5
+runs 94%), `coverage` says what it is, and the tables print it instead of a "95%" the count cannot give. A paired
+comparison's per-round ratios take the same interval.
+
 A timed case (a case list whose "# repeat: N" is above 1, or that has none) runs in rounds with the other cases of
-its experiment (slurm/run-local): every case's repeat r before any case's repeat r + 1, so that a change of load
-falls on all of them alike. After round N (the list's repeat count, the least a group holds), a case stops as soon as
-the 95% bootstrap interval of its median lies within +-5% of the median, counting only its answers (exit status 0)
-that were not disturbed (common/timed_run.py: the machine's state beside each run); else it goes on to the cap
-(REPEAT_CAP, default 2N + 1), once it holds at least 5 (and N) undisturbed answers (rounds past the cap replace
-disturbed runs, up to twice the cap). Its state file then gets one line saying which of the two happened.
+its block (slurm/run-local: the experiments whose claims compare their cases, "# block: NAME" in their lists): every
+case's repeat r before any case's repeat r + 1, the order reversed from one round to the next, so that a change of
+load falls on all of them alike and the cases a claim compares are paired in each round. After round N (the list's
+repeat count, at least LEAST: what a 95% interval needs), a case stops as soon as the 95% interval of its median lies
+within +-5% of the median, counting only its answers (exit status 0) that were not disturbed (common/timed_run.py:
+the machine's state beside each run); else it goes on to the cap (REPEAT_CAP, default 2N + 1), once it holds at
+least N undisturbed answers (rounds past the cap replace disturbed runs, up to twice the cap). Its state file then
+gets one line saying which of the two happened.
 
     common/timing_protocol.py decide RECORDS STATE CASE ROUND MIN CAP [HARD]
         prints "continue", "interval", "cap" or "no-answer" (HARD, default 2 x CAP: the last round in any case);
         on all but "continue" appends the group's line
-        {"case", "stop", "n", "median_s", "ci_s"} to STATE.
+        {"case", "stop", "n", "median_s", "ci_s", "coverage"} to STATE.
 
 analysis/records.py takes median_ci from here, so the runner's stopping rule and the tables' intervals agree.
 Standard library only: it runs where the project's virtual environment is not."""
 import json
+import math
 import os
-import random
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -27,9 +36,7 @@ import harness_io  # noqa: E402
 
 LEVEL = 0.95
 TARGET = 0.05  # the interval's half-width, relative to the median
-CAPPED_LEAST = 5  # a group that misses its interval holds at least this many answers (3 do only with it met)
-RESAMPLES = 2000
-SEED = 12345
+LEAST = 6  # the least count of a timed group: the fewest runs whose interval of the median reaches 95% (96.9%)
 # The time that a case's group is judged on, as the tables show it: a solve's setup + solve (+ upload to a GPU: the
 # run time of analysis/radiosity_tables.py and table41.py), else the first of these in a record's times_s.
 TIMED = ("hemicube", "total")
@@ -41,16 +48,36 @@ def median(values):
     return float("nan") if n == 0 else v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
 
 
-def median_ci(values, level=LEVEL, resamples=RESAMPLES):
-    """The bootstrap interval of the median (a fixed seed: the same values give the same interval)."""
-    v = [float(x) for x in values]
-    if not v:
+def _order(n, level):
+    """(k, coverage): the order statistic k (1-based) of the interval [x_(k), x_(n+1-k)] and its exact coverage."""
+    k, cover = 1, 1 - 2 * 0.5 ** n  # [min, max]
+    tail = 0.0  # P(Binomial(n, 1/2) <= j - 1), accumulated
+    for j in range(1, n // 2 + 1):
+        tail += math.comb(n, j - 1) * 0.5 ** n
+        c = 1 - 2 * tail
+        if c >= level:
+            k, cover = j, c
+        else:
+            break
+    return k, cover
+
+
+def coverage(n, level=LEVEL):
+    """The true coverage of median_ci's interval for n values (below `level` where n is too small for it)."""
+    return _order(n, level)[1] if n >= 2 else float("nan")
+
+
+def median_ci(values, level=LEVEL):
+    """The distribution-free interval of the median of `values` at `level` (or the widest the count allows, [min,
+    max], whose coverage `coverage` gives); NaNs for no values, (x, x) for one."""
+    v = sorted(float(x) for x in values)
+    n = len(v)
+    if n == 0:
         return float("nan"), float("nan")
-    rng = random.Random(SEED)
-    meds = sorted(median(rng.choices(v, k=len(v))) for _ in range(resamples))
-    lo = meds[int((1 - level) / 2 * (resamples - 1))]
-    hi = meds[int(round((1 + level) / 2 * (resamples - 1)))]
-    return lo, hi
+    if n == 1:
+        return v[0], v[0]
+    k, _ = _order(n, level)
+    return v[k - 1], v[n - k]
 
 
 def interval_met(values, target=TARGET):
@@ -102,13 +129,14 @@ def decide(records_path, state_path, case, rnd, least, cap, hard=None):
         stop = "no-answer"
     elif rnd >= least and len(times) >= least and interval_met(times):
         stop = "interval"
-    elif rnd >= cap and (len(times) >= max(least, CAPPED_LEAST) or rnd >= (hard or 2 * cap)):
+    elif rnd >= cap and (len(times) >= least or rnd >= (hard or 2 * cap)):
         stop = "cap"  # at the cap, once the group holds enough undisturbed answers (at most HARD rounds)
     else:
         return "continue"
     lo, hi = median_ci(times) if times else (None, None)
     line = json.dumps({"case": case, "stop": stop, "n": len(times), "median_s": median(times) if times else None,
-                       "ci_s": [lo, hi] if times else None}, sort_keys=True)
+                       "ci_s": [lo, hi] if times else None,
+                       "coverage": round(coverage(len(times)), 4) if len(times) >= 2 else None}, sort_keys=True)
     harness_io.append_line(state_path, line)  # whole or not at all; HarnessFileError says why
     return stop
 

@@ -200,7 +200,7 @@ class Driver:
         utc, wall_s, exit_status, disturbed, reason), with the GPU's state before and after it and the node's load."""
         bad, why = gpu_state.disturbed(before, after)
         line = {"case": cmd.case_id, "repeat": cmd.repeat, "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                "wall_s": round(wall_s, 6), "exit_status": status, "disturbed": bad, "reason": why,
+                "wall_s": round(wall_s, 6), "exit_status": status, "disturbed": bad, "reason": why, "block": "gpu-kit",
                 "load_after": round(os.getloadavg()[0], 2), "gpu_before": before, "gpu_after": after}
         if self.nvml is None:
             line["gpu_state"] = gpu_state.Nvml.why or "not sampled"

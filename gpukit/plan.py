@@ -6,8 +6,7 @@ The order, by phase (PHASES), most important first:
   inputs       the form factors of the preset's scenes, on the node's CPUs (the radiosity cases read them)
   tables       round 1: every GPU cell of the report's Tables 4.1 (N = 8192's plain CG aside), 4.3, 4.4 and 4.5 once,
                with the CPU cells on the node that the GPU claims set them against (OpenMP on the node's cores: Table
-               4.1 at the N where the CPU takes seconds, Table 4.2's Jacobi, the OpenMP column of Table 4.3, and
-               Table 4.4's)
+               4.1 at the N where the CPU takes seconds, Tables 4.3's and 4.4's OpenMP)
   claims       rounds 2..ROUNDS of the groups each claim compares, cheapest group first, as many groups as the
                budget holds beside the other phases up to memcheck: the cases of a group run side by side in each
                round, their order reversed from one round to the next (paired and interleaved), so that a claim is
@@ -160,10 +159,10 @@ def _scene(c):
 
 def companions(folder, preset):
     """The CPU cells on the node that the GPU claims set the GPU cells against (all OpenMP, on every core): Table 4.1's
-    plain CG up to CPU_POISSON_MAX_N, Table 4.2's Jacobi (Table 4.3's OpenMP column) and Table 4.4's OpenMP."""
+    plain CG up to CPU_POISSON_MAX_N, Table 4.3's and Table 4.4's OpenMP."""
     folder, out = Path(folder), []
     for exp, keep in (("table41", lambda c: c.backend() == "openmp" and _plain(c) and _n(c) <= CPU_POISSON_MAX_N),
-                      ("table42", lambda c: c.backend() == "openmp" and option(c.line.split(), "--method") == "jacobi"),
+                      ("table43", lambda c: c.backend() == "openmp"),
                       ("table44", lambda c: c.backend() == "openmp")):
         f = folder / f"{exp}.txt"
         if f.exists():
@@ -183,7 +182,7 @@ def claim_groups(table_cases):
             groups.append((f"Table 4.1 at N = {n}: cuBLAS 1 against cuBLAS 2, the CPU against the GPU", g))
     for s in dict.fromkeys(_scene(c) for c in table_cases if c.experiment == "table43"):
         g = [c for c in table_cases if _scene(c) == s and (
-            (c.experiment == "table43" and c.backend() == "cuda") or c.experiment == "table42" or
+            (c.experiment == "table43" and c.backend() in ("cuda", "openmp")) or
             (c.experiment == "table44" and c.backend() in ("cublas", "openmp") and "--fused" not in c.line))]
         if len(g) > 1:
             groups.append((f"{s}: CUDA AOS against SOA (cuBLAS), each against OpenMP", g))
@@ -227,7 +226,7 @@ def build(kit, tok, sanitizer, preset="paper", budget=BUDGET_S):
     large = [c for c in gpu if c.experiment == "table41" and _plain(c) and _n(c) == n_max]
     beyond = [c for c in gpu if "--fused" in c.line or not _plain(c)]  # ours, beyond the report's columns
     table_cases = [c for c in gpu if c not in large and c not in beyond] + companions(lists, preset)
-    order = {"table43": 0, "table42": 1, "table44": 2, "table45": 3, "table41": 4}
+    order = {"table43": 0, "table44": 1, "table45": 2, "table41": 3}
     table_cases.sort(key=lambda c: (order.get(c.experiment, 5), _n(c), c.experiment, c.index))
     phase["tables"] = [case_step(c, "tables") for c in table_cases]
     extra = derived(gpu, preset)

@@ -40,10 +40,10 @@ def mpi_experiments(preset, p):
     top = max(m["ranks"])
     even = min(top, max(2, p["cores"]))
     e = {}
-    # Three repeats: a rank's hemicube time varies by about 10% from run to run on a shared machine, as much as the
-    # split by work gains over equal counts.
+    # Six repeats, as every timed group (issue 49): a rank's hemicube time varies by about 10% from run to run on a
+    # shared machine, as much as the split by work gains over equal counts.
     e["mpi-formfactors"] = ("Radiosity across nodes: form factors on P MPI ranks, one file written together (MPI-IO); "
-                            f"strong scaling on {strong}, weak scaling (patches grow as sqrt(P))", 3, [
+                            f"strong scaling on {strong}, weak scaling (patches grow as sqrt(P))", 6, [
         *(f"ranks={r} bin/radiosity formfactors {scene(m['scene'], 1.0)} -o {ff(f'{strong}-P{r}')} {hemi}"
           for r in m["ranks"]),
         *(f"ranks={r} bin/radiosity formfactors {scene(s, d)} -o {ff(f'weak-P{r}')} {hemi}"

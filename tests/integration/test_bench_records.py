@@ -9,8 +9,11 @@ from analysis.records import median_ci
 def test_ci_of_is_the_protocols_interval_of_the_median_times_scale():
     df = pd.DataFrame({"t": [0.50, 0.52, 0.49, 0.55, 0.51]})
     lo, hi = median_ci([1000 * x for x in df["t"]])
-    assert br.ci_of(df, "t", scale=1000) == f"[{lo:.3g}, {hi:.3g}]"
+    # 5 repeats: [min, max], whose true coverage (94%) is printed beside it, not a "95%" the count cannot give
+    assert br.ci_of(df, "t", scale=1000) == f"[{lo:.3g}, {hi:.3g}] 94%"
     assert lo <= 1000 * br.median_of(df, "t") <= hi
+    six = pd.DataFrame({"t": [0.50, 0.52, 0.49, 0.55, 0.51, 0.53]})
+    assert br.ci_of(six, "t").endswith("]")  # 6 repeats reach 95%: no coverage beside
 
 
 def test_ci_of_is_empty_below_three_repeats():

@@ -63,3 +63,47 @@ def test_disturbed_runs_are_left_out_of_the_groups(tmp_path):
 def test_bad_arguments_exit_2(tmp_path):
     p = compare(tmp_path / "missing", tmp_path)
     assert p.returncode == 2
+
+
+def copy_run(src, dst, scale=None):
+    """The reference's committed Table 4.2-4.4 records and state files of the quick preset into a machine folder dst
+    (scale: {(experiment, method): factor} applied to those runs' solve times)."""
+    import shutil
+    dst.mkdir(parents=True)
+    shutil.copy(src / "machine.json", dst / "machine.json")
+    for exp in ("table42", "table43", "table44"):
+        (dst / exp).mkdir()
+        shutil.copy(src / exp / "quick.state.jsonl", dst / exp / "quick.state.jsonl")
+        out = []
+        for line in (src / exp / "quick.jsonl").read_text().splitlines():
+            r = json.loads(line)
+            f = (scale or {}).get((exp, r["params"].get("method")))
+            if f:
+                r["times_s"]["solve"] *= f
+            out.append(json.dumps(r))
+        (dst / exp / "quick.jsonl").write_text("\n".join(out) + "\n")
+
+
+def test_claims_of_two_runs_compared_flips_changes_and_overlap_last_as_one_json_line(tmp_path):
+    """--claims (issue 49): the same records twice give no flip, no change and every interval overlapping; BiCG-STAB
+    made 4 times slower in one of them flips its time parts where ours found it faster, and says which."""
+    ref = ROOT / "results" / (ROOT / "results" / "REFERENCE").read_text().strip()
+    res = tmp_path / "results"
+    copy_run(ref, res / "run-a")
+    copy_run(ref, res / "run-b")
+    copy_run(ref, res / "run-c", scale={("table42", "bicgstab"): 4.0})
+    env = {"RESULTS": str(res), "ANALYSIS_ALL_RECORDS": "1"}
+    p = run([sys.executable, "-m", "analysis.reproducibility", "--claims", "run-a", "run-b", "quick"], env=env,
+            cwd=ROOT, timeout=300)
+    assert p.returncode == 0, p.stderr
+    last = json.loads(p.stdout.strip().splitlines()[-1])
+    assert set(last) == {"claims", "flips", "changed", "overlap_share"} and last["claims"] >= 6
+    assert last["flips"] == 0 and last["changed"] == 0 and last["overlap_share"] == 1.0, last
+    p = run([sys.executable, "-m", "analysis.reproducibility", "--claims", "run-a", "run-c", "quick"], env=env,
+            cwd=ROOT, timeout=300)
+    last = json.loads(p.stdout.strip().splitlines()[-1])
+    assert last["overlap_share"] < 1.0 and last["flips"] + last["changed"] >= 1, p.stdout
+    assert any(l.startswith("differs: BiCG-STAB") and "time, BiCG-STAB over Jacobi" in l
+               for l in p.stdout.splitlines()), p.stdout
+    bad = run([sys.executable, "-m", "analysis.reproducibility", "--claims", "run-a", "nowhere"], env=env, cwd=ROOT)
+    assert bad.returncode == 2 and "no machine folder nowhere" in bad.stderr
