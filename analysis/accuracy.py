@@ -115,7 +115,7 @@ def solver_time(df):
 
 
 def time_interval(df):
-    """Per row, the 95% interval and n of its modelled time: the bootstrap interval of the median over the runs j of
+    """Per row, the interval and n of its modelled time: the distribution-free interval of the median over the runs j of
     its configuration of setup_j + the row's iterations x time per iteration_j (NaN below 3 runs)."""
     cols = [c for c in CONFIG if c in df.columns]
     keys = df[cols].astype(str).agg("|".join, axis=1)
