@@ -32,6 +32,12 @@ def far_from(r, exact):
     return max(abs(x - exact) for x in (r["result.radiosity_min"] + r["result.radiosity_max"])) / exact
 
 
+def rho_of(scene):
+    """The reflectivity of a closed box named box_rhoX.xml; NaN for any other scene."""
+    name = Path(scene).stem
+    return float(name[len("box_rho"):]) if name.startswith("box_rho") else np.nan
+
+
 def extremes(preset):
     df = load("extremes", preset)
     if df.empty:
@@ -41,7 +47,7 @@ def extremes(preset):
     sums = row_sums(preset)
     for _, r in rad.iterrows():
         name = Path(r["params.scene"]).stem
-        rho = float(name[len("box_rho"):]) if name.startswith("box_rho") else 0.5
+        rho = 0.5 if np.isnan(rho_of(r["params.scene"])) else rho_of(r["params.scene"])  # the other boxes: 0.5
         emission = float(name[len("box_emission"):]) if name.startswith("box_emission") else 1.0
         s = sums.get(r.get("params.ff_file"), np.nan)
         exact = emission / (1 - rho) if rho < 1 else np.nan  # rho >= 1: no physical answer
@@ -93,8 +99,8 @@ def extreme_outcomes(preset):
         return [f"No extremes records used for this preset ({NONE_USED})."]
     lines = []
     rad = df[df["app"] == "radiosity"]
-    box = rad[rad["params.scene"].str.contains("box_rho") & (rad["params.method"] == "jacobi") &
-              (rad["params.scene"].map(lambda x: float(Path(x).stem[len("box_rho"):]) < 1))]
+    rhos = rad["params.scene"].map(rho_of)
+    box = rad[(rad["params.method"] == "jacobi") & (rhos < 1)]
     def answered(r):  # a run that is no answer (exit 3, 4, 5) has no radiosity to quote: its reason instead
         return isinstance(r.get("result.radiosity_max"), list)
 
@@ -103,7 +109,7 @@ def extreme_outcomes(preset):
                 f"{r['result.iterations']} iterations: {md(r.get('result.exit_reason', r['result.status']))}")
 
     for _, r in box.sort_values(["params.scene", "params.precision"]).iterrows():
-        rho = float(Path(r["params.scene"]).stem[len("box_rho"):])
+        rho = rho_of(r["params.scene"])
         if not answered(r):
             lines.append(no_answer(r, f"closed box rho = {rho:g}, Jacobi in {r['params.precision']} to "
                                       f"{r['params.tol']:g}"))
@@ -114,10 +120,9 @@ def extreme_outcomes(preset):
                      f"{math.log(r['params.tol']) / math.log(rho):.0f}), B = {b:.6g} against E/(1 - rho) = "
                      f"{1 / (1 - rho):.6g} ({abs(b * (1 - rho) - 1):.2%} off: the hemicube's row sums), "
                      f"{r['result.error_vs_reference']:.2g} from the converged solution of the same F")
-    amplified = rad[rad["params.scene"].str.contains("box_rho") & (rad["params.scene"].map(
-        lambda x: float(Path(x).stem[len("box_rho"):]) >= 1))]
+    amplified = rad[rhos >= 1]
     for scene, g in amplified.groupby("params.scene", sort=True):
-        rho = float(Path(scene).stem[len("box_rho"):])
+        rho = rho_of(scene)
         answered_too = [f"{r['params.method']} in {r['params.precision']}" for _, r in g.iterrows() if answered(r)]
         by = g.groupby("exit_status").size()
         lines.append(f"- closed box rho = {rho:g} (the light amplified: no physical answer), {len(g)} runs, every "
@@ -127,7 +132,7 @@ def extreme_outcomes(preset):
                                                           md(str(r.get('result.exit_reason', '')))[:120]
                                                           for _, r in g.iterrows() if r["params.method"] == "bicgstab"
                                                           and r["params.precision"] == "double"})))
-    for _, r in rad[~rad["params.scene"].str.contains("box_rho")].iterrows():
+    for _, r in rad[rhos.isna()].iterrows():
         if not answered(r):
             lines.append(no_answer(r, md(f"{Path(r['params.scene']).stem}, {r['params.method']} in {r['params.precision']}")))
             continue

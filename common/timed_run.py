@@ -33,6 +33,7 @@ import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -134,11 +135,32 @@ def recent_baseline(state, fallback, keep=20):
     return vals[len(vals) // 2] if len(vals) >= 5 else fallback if plausible(fallback) else None
 
 
+def ignored_at_start():
+    """The signals among SIGPIPE and SIGXFSZ that this process was started with ignored. Python ignores both itself
+    before any of our code runs, so they are read from the parent that started us (a shell's ignored signals are
+    the ones its children inherit); empty where that cannot be read."""
+    try:
+        with open(f"/proc/{os.getppid()}/status") as f:
+            mask = int(next(l for l in f if l.startswith("SigIgn:")).split()[1], 16)
+    except (OSError, StopIteration, ValueError):
+        return set()
+    return {s for s in (signal.SIGPIPE, signal.SIGXFSZ) if mask >> (s - 1) & 1}
+
+
+def _child_signals(keep):
+    """In the child before exec: SIGPIPE and SIGXFSZ back to their default, except those ignored at our start
+    (a full disk or a file-size limit is then an error the program reports, as its caller asked)."""
+    for s in (signal.SIGPIPE, signal.SIGXFSZ):
+        if s not in keep:
+            signal.signal(s, signal.SIG_DFL)
+
+
 def run(cmd):
     """Runs cmd; (exit status as a shell reports it, wall seconds, the child's CPU seconds)."""
     t0 = time.monotonic()
+    keep = ignored_at_start()
     try:
-        child = subprocess.Popen(cmd)
+        child = subprocess.Popen(cmd, restore_signals=False, preexec_fn=lambda: _child_signals(keep))
     except OSError as e:
         print(f"timed_run: cannot run {cmd[0]}: {e.strerror}", file=sys.stderr)
         return 127, 0.0, 0.0
@@ -158,7 +180,6 @@ def parse(argv):
         raise ValueError("usage: common/timed_run.py --state FILE --case CASE --repeat R [--probe CMD] -- PROGRAM ARGS...")
     k = argv.index("--")
     opts, cmd = argv[:k], argv[k + 1:]
-    d = dict(zip(opts[::2], opts[1::2]))
     over = "--oversubscribed" in opts
     opts = [o for o in opts if o != "--oversubscribed"]
     d = dict(zip(opts[::2], opts[1::2]))

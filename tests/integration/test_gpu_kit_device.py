@@ -146,8 +146,8 @@ def test_the_fake_gpus_archive_imports_and_make_report_fills_the_gpu_cells_and_d
     report = (results / "report" / label / "REPORT-ci.md").read_text()
     t41 = next(l for l in report.splitlines() if l.startswith("| 16 |"))
     assert "n=6" in t41, t41  # the cuBLAS cells of Table 4.1, six rounds each
-    claims = [l for l in report.splitlines() if l.startswith("| CUDA AOS is the fastest on the smallest scene")]
-    assert claims and "not run" not in claims[0] and "(n = 6, 6)" in claims[0], claims
+    claims = [l for l in report.splitlines() if l.startswith("| CUDA with SOA (cuBLAS) is faster than CUDA with AOS")]
+    assert claims and "not run" not in claims[0] and "6 pairs, interleaved" in claims[0], claims
 
 
 def test_a_limit_that_cuts_the_run_short_still_brings_back_its_files(kit, tmp_path):

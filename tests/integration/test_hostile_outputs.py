@@ -166,7 +166,7 @@ def test_relight_refuses_a_frame_whose_radiosity_is_infinite(lit):
     p = run(command("radiosity", "relight", "box.xml", "--ff", "box.ff", "--frames", "f.json", "--record", "r.jsonl",
                     "--record-patches", "2", "--quiet"), cwd=d)
     assert p.returncode == 3, (p.returncode, p.stderr)
-    assert "frame 1: nonfinite: radiosity of patch 0 channel r is inf" in p.stderr, p.stderr
+    assert "frame 1: nonfinite: the radiosity of patch 0, channel r, is inf" in p.stderr, p.stderr
     rec = json.loads((d / "r.jsonl").read_text().splitlines()[-1])
     assert rec["result"]["exit_status"] == 3 and "frame 1: nonfinite" in rec["result"]["exit_reason"]
     per_frame = rec["result"]["per_frame"]
