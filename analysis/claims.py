@@ -91,7 +91,7 @@ def openmp_speedup(preset):
         df = radiosity_tables.solves(table, preset)
         for s in sorted(set(df["scene_id"].dropna())) if not df.empty else []:
             omp = _sel(df, scene_id=s, column="openmp")
-            for other in ("serial", "original") if table == "table43" else ("serial",):
+            for other in ("serial", "original"):  # each table's own Original runs (issue 50)
                 t = _sel(df, scene_id=s, column=other)
                 if len(omp) and len(t):
                     out.append(part(claim, f"{SCENE_NAMES.get(int(s))}, {layout}: {other} over OpenMP", t, omp,

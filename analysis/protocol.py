@@ -177,3 +177,37 @@ def note(files):
     if total["no_state"]:
         text += f" Of those used, {total['no_state']} {WHY['no_state']}."
     return text
+
+
+def machine_time(folder, preset):
+    """What a preset cost this machine, from every file of its folder (used or not): {"seconds": the runs' wall time
+    (the state files' for the timed runs, the records' own total for the others), "runs", "disturbed": the runs
+    flagged disturbed, "first"/"last": the UTC of the first and last run, "commits": the commits that made them}."""
+    out = {"seconds": 0.0, "runs": 0, "disturbed": 0, "first": None, "last": None, "commits": set()}
+    for rec_file in sorted(Path(folder).glob(f"*/{preset}.jsonl")):
+        timed = set()
+        try:  # the state file's bad lines are named by state(), once, where the tables read it
+            runs, _ = harness_io.read_objects(rec_file.with_name(f"{preset}.state.jsonl"))
+            good, _ = harness_io.read_objects(rec_file)
+        except harness_io.HarnessFileError:
+            continue
+        for _, s in runs:
+            if "stop" in s or not isinstance(s.get("case"), str):
+                continue
+            timed.add(s["case"])
+            out["runs"] += 1
+            out["disturbed"] += s.get("disturbed") is True
+            out["seconds"] += float(s["wall_s"]) if isinstance(s.get("wall_s"), (int, float)) else 0.0
+        for _, r in good:
+            prov, utc = r.get("provenance") or {}, None
+            utc = prov.get("utc") if isinstance(prov.get("utc"), str) else None
+            if utc:
+                out["first"] = min(out["first"] or utc, utc)
+                out["last"] = max(out["last"] or utc, utc)
+            if isinstance(prov.get("git_commit"), str):
+                out["commits"].add(prov["git_commit"][:12])
+            if str((prov.get("env") or {}).get("HPCGI_CASE")) not in timed:
+                out["runs"] += 1
+                total = (r.get("times_s") or {}).get("total")
+                out["seconds"] += float(total) if isinstance(total, (int, float)) else 0.0
+    return out

@@ -89,6 +89,13 @@ def how_to_read(preset, df, differ):
         out.append(f"- the hours the records used were made in: UTC {md(df['provenance.utc'].min())} to "
                    f"{md(df['provenance.utc'].max())}; a run the runner flagged as disturbed (other processes' CPU "
                    "share, CPU pressure, tasks runnable beside it, steal, the bandwidth probes) is not among them")
+    cost = protocol.machine_time(machine_dir(), preset)
+    if cost["runs"]:
+        out.append(f"- what this preset cost the machine: {cost['seconds'] / 3600:.2f} h of runs ({cost['runs']} runs, "
+                   f"every record of the preset, used or not: the state files' wall times, the records' own for the "
+                   f"untimed runs), UTC {md(cost['first'] or '?')} to {md(cost['last'] or '?')}, from commit(s) "
+                   f"{md(', '.join(sorted(cost['commits'])) or 'none')}; {cost['disturbed']} run(s) flagged disturbed "
+                   "and left out")
     out += [f"- the same quantity quoted with different settings, or too few runs to check: {md(d)}" for d in differ]
     return out + [""]
 

@@ -113,7 +113,7 @@ def planned(experiment, preset, what=None):
         ff = ff[ff["params.scene"].map(lambda s: str(s).rsplit("/", 1)[-1]).isin(scenes)]
         cols.update({c: sorted(set(ff[c].dropna())) for c in ("params.weights", "params.hemicube") if c in ff})
     cols["params.tol"] = [float(v) for v in opt("--tol")]
-    prog = {next((a.rsplit("/", 1)[-1] for a in l[:2] if a.startswith("bin/")), None) for l in lines}
+    prog = {next((a.rsplit("/", 1)[-1] for a in l[:3] if a.startswith("bin/")), None) for l in lines}  # past repeat=, ranks=
     default = {"poisson": "double", "radiosity": "float"}.get(prog.pop()) if len(prog) == 1 else None
     pairs = sorted({(l[l.index("--storage") + 1], l[l.index("--ff-precision") + 1] if "--ff-precision" in l[:-1]
                      else "float32") for l in lines if "--storage" in l[:-1]})
@@ -124,7 +124,7 @@ def planned(experiment, preset, what=None):
     df = pd.concat([pd.Series(v, name=c, dtype=float if c == "params.tol" else object) for c, v in cols.items() if v],
                    axis=1)
     threads = opt("--threads")
-    ranks = sorted({a[len("ranks="):] for l in lines for a in l[:1] if a.startswith("ranks=")}, key=_natural)
+    ranks = sorted({a[len("ranks="):] for l in lines for a in l[:2] if a.startswith("ranks=")}, key=_natural)
     runs = "; ".join(x for x in (f"ours {', '.join(sorted(threads, key=_natural))} OpenMP thread(s)" if threads else "",
                                  f"{', '.join(ranks)} MPI rank(s)" if ranks else "") if x)
     head = line(df.dropna(axis=1, how="all"), preset, "; ".join(x for x in (runs, what) if x))

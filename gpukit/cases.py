@@ -1,16 +1,34 @@
 """The case lists (slurm/cases/<preset>/<experiment>.txt) as slurm/run-case reads them, for the kit's driver, which
 runs their GPU cases on the node without the repository's shell harness.
 
-A case is line k (0-based, comments and blank lines skipped) of a list, "[ranks=P] PROGRAM ARGS" with the tokens
-{FF_DIR}, {RRV_SCENES}, {PRESET} and {RESULTS}; its id is "<preset>/<experiment>/<k>/<first 8 hex of md5(line)>",
-the HPCGI_CASE that run-case gives it, so the kit's records are the same cases as the harness's."""
+A case is line k (0-based, comments and blank lines skipped) of a list, "[repeat=K] [ranks=P] PROGRAM ARGS" with the
+tokens {FF_DIR}, {RRV_SCENES}, {PRESET}, {RESULTS} and {CORES} (the cores the case may use); its id is
+"<preset>/<experiment>/<k>/<first 8 hex of md5(line)>", the HPCGI_CASE that run-case gives it, so the kit's records
+are the same cases as the harness's. repeat=K: the case runs K times at most (a long case, fewer runs than its list's
+"# repeat: N"); ranks=P: P MPI ranks (P may be {CORES})."""
 import hashlib
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from common import backend_facts  # which backends run on a GPU: the programs' --list-backends --json
 _COMMENT = re.compile(r"^\s*(#|$)")
+_PREFIX = re.compile(r"^(repeat|ranks)=([1-9][0-9]*|\{CORES\})$")
+
+
+def split_line(line):
+    """A case line's prefixes and its command: ({"repeat": "K", "ranks": "P"} as far as given, "PROGRAM ARGS")."""
+    pre, words = {}, line.split(" ")
+    while words and _PREFIX.match(words[0]) and _PREFIX.match(words[0])[1] not in pre:
+        m = _PREFIX.match(words.pop(0))
+        pre[m[1]] = m[2]
+    return pre, " ".join(words)
+
+
+def cores():
+    """The cores this process may run on (its affinity: a Slurm step's or a cgroup's share of the node)."""
+    return len(os.sched_getaffinity(0))
 
 
 @dataclass(frozen=True)
@@ -25,8 +43,17 @@ class Case:
 
     preset: str = "paper"
 
+    @property
+    def prefixes(self):
+        return split_line(self.line)[0]
+
+    @property
+    def command(self):
+        """The line without its prefixes, tokens not yet replaced."""
+        return split_line(self.line)[1]
+
     def backend(self):
-        t = self.line.split()
+        t = self.command.split()
         return t[t.index("--backend") + 1] if "--backend" in t[:-1] else None
 
     def is_gpu(self):
@@ -35,10 +62,16 @@ class Case:
 
     def argv(self, tokens):
         """The command, tokens replaced; None for a case with ranks= (MPI: never a GPU case, never in the kit)."""
-        line = self.line
-        for k, v in tokens.items():
-            line = line.replace("{" + k + "}", str(v))
-        return None if line.startswith("ranks=") else line.split()
+        if "ranks" in self.prefixes:
+            return None
+        return replace(self.command, tokens).split()
+
+
+def replace(text, tokens):
+    """The tokens of a case line replaced ({CORES}: the cores this process may use, unless `tokens` names them)."""
+    for k, v in {"CORES": cores(), **tokens}.items():
+        text = text.replace("{" + k + "}", str(v))
+    return text
 
 
 def case_id(preset, experiment, index, line):

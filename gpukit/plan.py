@@ -166,7 +166,7 @@ def companions(folder, preset):
                       ("table44", lambda c: c.backend() == "openmp")):
         f = folder / f"{exp}.txt"
         if f.exists():
-            out += [c for c in cases.read(f, preset) if not c.line.startswith("ranks=") and keep(c)]
+            out += [c for c in cases.read(f, preset) if "ranks" not in c.prefixes and keep(c)]
     return out
 
 

@@ -13,7 +13,7 @@ ACCURACY = {
                   mesh={1: ([4, 2, 1], 0.25), 2: ([4, 2, 1], 0.5)}, mesh_hemicube=128, poisson_n=[1, 2, 1024]),
     "ci": dict(threads=1, scenes=[1], hemicube={1: ([16], 32)}, mesh={1: ([4], 1)}, mesh_hemicube=16,
                poisson_n=[1, 2]),
-    "paper": dict(threads=16, scenes=[1, 2, 3, 4],
+    "paper": dict(threads="{CORES}", scenes=[1, 2, 3, 4],
                   hemicube={1: ([32, 64, 128, 256, 512], 1024), 2: ([32, 64, 128, 256, 512], 1024),
                             3: ([32, 64, 128, 256], 512)},
                   mesh={1: ([4, 2, 1, 0.5], 0.125), 2: ([4, 2, 1, 0.5], 0.25)}, mesh_hemicube=256,
@@ -32,7 +32,7 @@ METHODS = ("jacobi", "gauss-seidel", "sor --omega 1.2", "bicgstab")
 
 def accuracy(preset, p):
     a = ACCURACY[preset]
-    t, cores = a["threads"], p["cores"]
+    t, cores = a["threads"], p["threads"]
     solve = "bin/radiosity solve"
     default = f"--backend openmp --threads {t}"
 

@@ -5,7 +5,7 @@ def bench(preset, p):
     limit, each solver's time per iteration, and the peers (SciPy, NumPy with OpenBLAS) on the same problems with
     the same threads. Room3's form factors at R = 256 are the hemicube case's output, read by the Jacobi cases with
     our 32 steps (slurm/bench makes both once)."""
-    t = p["cores"]
+    t = p["threads"]
     room3 = "{RRV_SCENES}/room3.xml --allow-reflectivity-ge-1"
     ff = "{FF_DIR}/bench-room3.ff"
     peer = ".venv/bin/python -m bench.peers"

@@ -15,13 +15,17 @@ PRESETS = {
     # quick: scenes 1-3, a coarser hemicube, our exact weights, for 2 cores. Its timing tables (4.1-4.5) run each
     # case at least 6 times, as every preset: the fewest runs whose interval of the median reaches 95% (issue 49).
     "quick": dict(scenes=[1, 2, 3], hemicube=128, weights="exact", poisson_n=[256, 512, 1024], ranks=[1, 2],
-                  cores=2, hybrid_scene=3, mg_n=[256, 512, 1024, 2048], timing_repeat=6),
+                  cores=2, threads=2, hybrid_scene=3, mg_n=[256, 512, 1024, 2048], timing_repeat=6),
     # ci: tiny cases for the test that runs the harness under a real single-node Slurm.
-    "ci": dict(scenes=[1], hemicube=16, weights="exact", poisson_n=[16, 32], ranks=[1, 2], cores=1, hybrid_scene=1,
+    "ci": dict(scenes=[1], hemicube=16, weights="exact", poisson_n=[16, 32], ranks=[1, 2], cores=1, threads=1, hybrid_scene=1,
                mg_n=[16, 32], figure42=dict(divide=8, hemicube=8)),
-    # paper: the report's sizes; RRV's hemicube (R = 256, its cos·cos weights) for a faithful reproduction.
+    # paper: the report's sizes; RRV's hemicube (R = 256, its cos·cos weights) for a faithful reproduction. Its
+    # OpenMP runs take every core the case may use ({CORES}: the machine's, or a Slurm job's), its ranks up to the
+    # report's 16 (a case with more ranks than cores is skipped: slurm/run-case). Plain CG takes about N iterations
+    # of N² work: at N = 8192 about half an hour a run on 2 cores, so those cases run `long_repeat` times at most.
     "paper": dict(scenes=[1, 2, 3, 4], hemicube=256, weights="rrv2007", poisson_n=[1024, 2048, 4096, 8192],
-                  ranks=[1, 2, 4, 8, 16], cores=16, hybrid_scene=4, mg_n=[1024, 2048, 4096, 8192], timing_repeat=6),
+                  ranks=[1, 2, 4, 8, 16], cores=16, threads="{CORES}", hybrid_scene=4,
+                  mg_n=[1024, 2048, 4096, 8192], timing_repeat=6, long_repeat={4096: 3, 8192: 2}),
 }
 
 

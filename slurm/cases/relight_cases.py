@@ -14,7 +14,7 @@ RELIGHT_REPEATS = {"quick": 3, "ci": 1, "paper": 3}
 
 
 def relight(preset, p):
-    t = p["cores"]
+    t = p["threads"]
     lines = []
     for s in p["scenes"]:
         name = SCENES[s][0]
