@@ -58,7 +58,6 @@ def experiments(preset, p):
         for d in range(11)])
     # The report's scene 3 (RRV's room3.xml) from its camera; ci (no room3 among its scenes) coarsens it
     # (--divide 8: 5960 patches) and takes a small hemicube, so that its run is seconds.
-    fig = p.get("figure42", {})
     e["figure42"] = ("Figure 4.2: scene 3 after 1, 2, 4, 8 and 32 Jacobi steps", 1, [
         f"{solve} {figure42_scene(preset, p)} --steps 32 --backend openmp --snapshots 1,2,4,8,32 "
         f"--snapshot-prefix {{RESULTS}}/figure42/{{PRESET}}/room3 --view -9.5,3,9.5:0,-5,-3:70 --size 320x240"])
