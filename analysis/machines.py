@@ -5,9 +5,10 @@ import sys
 
 import pandas as pd
 
-from analysis import radiosity_tables, table41
+from analysis import protocol, radiosity_tables, table41
 from analysis.escape import md, md_table
-from analysis.records import cell, summarise, load, machine_dir, machine_label, machines, on, reference, report_dir
+from analysis.records import (cell, summarise, load, machine, machine_dir, machine_label, machines, on, reference,
+                              report_dir)
 
 
 def describe(label):
@@ -21,7 +22,40 @@ def describe(label):
             last = df.sort_values("provenance.utc").iloc[-1]
             gpu = last.get("backend_info.gpu") if "backend_info.gpu" in df else None
             return last["provenance.host"], last["provenance.cpu_model"], last["provenance.cpus_online"], gpu, None
-    return None, None, None, None
+    return None, None, None, None, None
+
+
+def probe_gbs(preset):
+    """The median of the current machine's bandwidth probes (the runner's, before and after each timed run of the
+    preset: common/timed_run.py), and their count."""
+    vals = []
+    for f in sorted(machine_dir().glob(f"*/{preset}.state.jsonl")):
+        try:
+            good, _ = protocol.harness_io.read_objects(f)
+        except protocol.harness_io.HarnessFileError:
+            continue
+        vals += [float(d[k]) for _, d in good for k in ("probe_before_gbs", "probe_after_gbs")
+                 if isinstance(d.get(k), (int, float)) and d[k] > 0]
+    return (float(pd.Series(vals).median()), len(vals)) if vals else (None, 0)
+
+
+def differences(preset, ref):
+    """One sentence: what differs between the current machine and the reference `ref` that can move a time or a
+    claim: the CPU, the cores, the caches and the bandwidth its probes measured."""
+    def facts():
+        _, cpu, cpus, gpu, cache = describe(machine())
+        gbs, n = probe_gbs(preset)
+        return {"CPU": cpu, "cores": cpus, "GPU": gpu or "none",
+                "caches": ", ".join(f"{k} {v}" for k, v in sorted((cache or {}).items())) or "not recorded",
+                "bandwidth probe": f"{gbs:.1f} GB/s (median of {n})" if gbs else "none"}
+    mine = facts()
+    with on(ref):
+        theirs = facts()
+    parts = [f"{k} {md(mine[k])} against {md(theirs[k])}" for k in mine if str(mine[k]) != str(theirs[k])]
+    same = [k for k in mine if str(mine[k]) == str(theirs[k])]
+    return (f"What differs between this machine and the reference {md(ref)}: "
+            + ("; ".join(parts) if parts else "nothing this report can see")
+            + (f" (the same: {', '.join(same)})" if same else "") + ".")
 
 
 def headline(preset):

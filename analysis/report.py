@@ -7,8 +7,9 @@ import os
 import pandas as pd
 
 from analysis.escape import md
-from analysis import accuracy, mpi_radiosity, radiosity_tables, table41, table42_audit
+from analysis import accuracy, mpi_radiosity, table42_audit
 from analysis import claims as claims_mod
+from analysis import machines as machines_mod
 from analysis import consistency, protocol, settings
 from analysis.records import NONE_USED, ROOT, load, machine, machine_dir, on, plots_dir, reference, report_dir, skipped, \
     tables_dir
@@ -89,6 +90,8 @@ def how_to_read(preset, df, differ):
         out.append(f"- the hours the records used were made in: UTC {md(df['provenance.utc'].min())} to "
                    f"{md(df['provenance.utc'].max())}; a run the runner flagged as disturbed (other processes' CPU "
                    "share, CPU pressure, tasks runnable beside it, steal, the bandwidth probes) is not among them")
+    if reference() and reference() != machine():
+        out.append(f"- {machines_mod.differences(preset, reference())}")
     cost = protocol.machine_time(machine_dir(), preset)
     if cost["runs"]:
         out.append(f"- what this preset cost the machine: {cost['seconds'] / 3600:.2f} h of runs ({cost['runs']} runs, "

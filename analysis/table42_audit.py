@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis import settings  # noqa: E402
-from analysis.radiosity_tables import run_time, write as write_table  # noqa: E402
+from analysis.radiosity_tables import write as write_table  # noqa: E402
 from analysis.records import NONE_USED, cell, load, paper_table, plots_dir, summarise, tables_dir  # noqa: E402
 from analysis.stop_rules import TOL, parse_rule, replay, rule_values, tol_interval  # noqa: E402,F401  (the audit's API)
 

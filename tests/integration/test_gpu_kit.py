@@ -144,7 +144,7 @@ def test_dry_run_orders_what_matters_first_and_fits_6_minutes_with_a_reserve(kit
     # round 1 of the report's tables is whole: every GPU cell but N = 8192's plain CG, and the OpenMP cells beside
     tables = [s["name"] for s in steps if s["phase"] == "tables"]
     assert all(s in [f["name"] for f in fit] for s in tables)
-    assert any("--backend openmp --threads 16 --n 1024" in n for n in tables)
+    assert any("--backend openmp --threads {CORES} --n 1024" in n for n in tables)  # {CORES}: the node's, at its run
     assert not any("--n 8192 --max-iter" in n for n in tables)
     # the claims' rounds 2-6, each group side by side, at least one group whole within the budget
     rounds = [s["name"] for s in fit if s["phase"] == "claims"]

@@ -4,11 +4,9 @@ where the scenes are missing."""
 import filecmp
 import hashlib
 import json
-import os
+import re
 import shutil
-import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -86,6 +84,13 @@ def test_two_machines_in_one_clone_keep_their_own_records(tmp_path):
     assert run(["make", "-s", "machines", "PRESET=ci"], env=e, cwd=ROOT, timeout=300).returncode == 0
     page = (tmp_path / "results" / "report" / "MACHINES.md").read_text()
     assert "| a " in page and "| b " in page
+    # with b as the reference, a's report says what differs between them: the same CPU and cores, each its own probes
+    (tmp_path / "results" / "REFERENCE").write_text("b\n")
+    assert run(["make", "-s", "report", "PRESET=ci", "MACHINE=a"], env=e, cwd=ROOT, timeout=300).returncode == 0
+    line = next(l for l in report_a.read_text().splitlines() if "What differs between this machine and the reference b" in l)
+    same = re.search(r"\(the same: ([^)]*)\)", line)
+    assert same and {"CPU", "cores", "GPU"} <= set(same[1].split(", ")), line
+    assert re.search(r"GB/s \(median of \d+\)", line) or "bandwidth probe" in same[1], line
 
 
 def test_reference_tables_regenerate_from_its_committed_records(tmp_path):

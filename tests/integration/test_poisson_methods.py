@@ -44,7 +44,7 @@ def cells(table, n):
 
 
 def parse(c):
-    m = re.match(r"([\d.e-]+) \[([\d.e-]+), ([\d.e-]+)\] n=(\d+)", c)
+    m = re.match(r"([\d.e-]+) \[([\d.e-]+), ([\d.e-]+)\] \d+% n=(\d+)", c)  # median [interval] its level n=runs
     assert m, c
     return float(m[1]), float(m[2]), float(m[3]), int(m[4])
 
