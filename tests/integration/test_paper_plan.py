@@ -39,6 +39,7 @@ def test_on_one_core_the_two_rank_cases_are_skipped_and_said_and_the_rest_run_wi
     progress = [l for l in p.stdout.splitlines() if l.startswith("run-local: progress: ")]
     assert len(progress) == len(recs), progress  # one line per run (REPEAT=1: one a case)
     assert progress[-1].split(", ")[1] == f"{len(recs)}/{len(recs)} runs", progress[-1]  # the plan's count of runs
+    assert progress[-1].endswith("no estimate of the time left (this machine has no quick records to scale yet)")
 
 
 def test_oversubscribe_runs_them_and_says_so_in_the_record(tmp_path):
