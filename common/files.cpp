@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <random>
 #include <stdexcept>
 
 #include "common/errors.hpp"
@@ -162,20 +163,26 @@ void check_outputs(const std::vector<Output>& outputs, const std::vector<std::st
   }
 }
 
+// A temporary file's name is registered before the file exists, so that no signal finds it made and unknown (the
+// handler's unlink of a name not yet made does nothing); O_EXCL then makes it ours, or another name is drawn.
 std::string make_temp_beside(const std::string& path, int& slot) {
   const std::string dir = folder_of(resolve_target(path));
-  std::string tmpl = dir + "/.hpcgi-XXXXXX";
-  std::vector<char> buf(tmpl.begin(), tmpl.end());
-  buf.push_back('\0');
-  const int fd = mkstemp(buf.data());  // O_CREAT | O_EXCL, a name no other process has
-  if (fd < 0) throw std::runtime_error("cannot write " + in_quotes(path) + ": " + std::strerror(errno));
-  const mode_t mask = umask(0);
-  umask(mask);
-  if (fchmod(fd, 0666 & ~mask) != 0) { /* keeps mkstemp's 0600: still correct, only less shared */ }
-  ::close(fd);
-  std::string tmp(buf.data());
-  slot = register_temp(tmp);
-  return tmp;
+  static const char kChars[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+  std::random_device random;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::string tmp = dir + "/.hpcgi-";
+    for (int k = 0; k < 12; ++k) tmp += kChars[random() % (sizeof kChars - 1)];
+    slot = register_temp(tmp);
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);  // the umask applies
+    if (fd >= 0) {
+      ::close(fd);
+      return tmp;
+    }
+    const int err = errno;
+    release_temp(slot);
+    if (err != EEXIST) throw std::runtime_error("cannot write " + in_quotes(path) + ": " + std::strerror(err));
+  }
+  throw std::runtime_error("cannot write " + in_quotes(path) + ": no free temporary name beside it after 100 tries");
 }
 
 void release_temp(int slot) {
