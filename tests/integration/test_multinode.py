@@ -117,8 +117,19 @@ def test_a_node_killed_mid_array_then_resume_records_every_case_once(tmp_path):
                  f"--output={tmp_path}/%A_%a.out", "slurm/experiment.sbatch", exp], env=env, cwd=ROOT)
         assert p.returncode == 0, p.stderr
         deadline = time.time() + 60
-        while not squeue("-w", "node2", "-t", "R", "-o", "%i"):  # a task running on node2
-            assert time.time() < deadline, "no task ran on node2"
+        while True:  # a task running on node2, frozen before its record is written (a quick case may finish first)
+            assert time.time() < deadline, "no task on node2 was caught before its record"
+            on2 = squeue("-w", "node2", "-t", "R", "-o", "%i")
+            if not on2:
+                time.sleep(0.1)
+                continue
+            pids = run(["ip", "netns", "pids", "hpcgi-node2"]).stdout.split()
+            run(["kill", "-STOP", *pids])
+            done = {l.split('"HPCGI_CASE":')[1].split("/")[2] for f in (tmp_path / "results").rglob(f"{exp}/ci.jsonl")
+                    for l in f.read_text().splitlines() if '"HPCGI_CASE":' in l}  # the other nodes go on appending
+            if any(t.rsplit("_", 1)[-1] not in done for t in squeue("-w", "node2", "-o", "%i")):
+                break
+            run(["kill", "-CONT", *pids])
             time.sleep(0.1)
         pids = run(["ip", "netns", "pids", "hpcgi-node2"]).stdout.split()
         run(["kill", "-9", *pids])  # the node dies: its slurmd, the task's run-case and program
