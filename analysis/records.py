@@ -133,14 +133,17 @@ def read_jsonl(path, records=True):
 
 
 def newest(df):
-    """Per case (the runner's HPCGI_CASE), only the records of the newest commit that ran it: a case re-run after a
-    change (`REPEAT=10` adds repeats 5..9) is told by the new code's numbers, and the older records stay in the file
-    as history. Records made outside the runner (no case) are all kept."""
+    """Per line of a case list (the runner's HPCGI_CASE, PRESET/EXPERIMENT/LINE/HASH, less the hash of the line's
+    words), only the records of the newest commit that ran it: a case re-run after a change (`REPEAT=10` adds repeats
+    5..9), or a line changed in place (issue 49 added --min-time to the timed solves), is told by the new code's
+    numbers, never pooled with the old, and the older records stay in the file as history. Records made outside the
+    runner (no case) are all kept."""
     case, commit = "provenance.env.HPCGI_CASE", "provenance.git_commit"
     if df.empty or case not in df or commit not in df:
         return df
-    last = df.sort_values("provenance.utc").groupby(case)[commit].last()
-    return df[df[case].isna() | (df[commit] == df[case].map(last))]
+    line = df[case].map(lambda c: c.rsplit("/", 1)[0] if isinstance(c, str) else c)
+    last = df.assign(line=line).sort_values("provenance.utc").groupby("line")[commit].last()
+    return df[df[case].isna() | (df[commit] == line.map(last))]
 
 
 def load(experiment, preset=None, history=False):

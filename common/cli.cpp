@@ -146,6 +146,16 @@ CLI::Validator positive_finite() {
   return real_number([](double v) { return std::isfinite(v) && v > 0; }, "a finite number > 0", "POSITIVE");
 }
 
+void add_min_time_option(CLI::App* app, double& seconds) {
+  app->add_option("--min-time", seconds,
+                  "time a short solve as the median of many in this process: where one solve takes less than S "
+                  "seconds, it was a warm-up, and the solve is repeated from the same start until the repetitions "
+                  "sum to S; the record's times are the median repetition's, its \"repetitions\" section has them all "
+                  "(0: one solve)")
+      ->check(real_number([](double v) { return v >= 0 && v <= 3600; }, "a number of seconds from 0 to 3600", "S"))
+      ->capture_default_str();
+}
+
 CLI::Validator fraction_below_one() {
   return real_number([](double v) { return v >= 0 && v < 1; }, "a number from 0 to below 1", "[0, 1)");
 }

@@ -16,6 +16,10 @@ struct Options;
 // --record FILE, --json and --quiet, the same in every program (common/record.hpp: record::emit).
 void add_record_options(CLI::App* app, record::Options& out);
 
+// --min-time SECONDS, the same in every program that times a solve (common/repetitions.hpp): 0 (the default) is one
+// solve; S > 0 repeats a solve shorter than S in the process and takes the median repetition. At most an hour.
+void add_min_time_option(CLI::App* app, double& seconds);
+
 // Runs body() and turns the project's exceptions into exit statuses and one-line messages.
 int run_main(const std::string& program, const std::function<int()>& body);
 

@@ -41,9 +41,12 @@ PROBE_S = 1.0  # the bandwidth probes before and after a timed run, and the runn
 
 
 def shape(command):
-    """A command up to its sizes: the values of SIZES, the scene and any file named after its preset as '*'."""
+    """A command up to its sizes: the values of SIZES, the scene and any file named after its preset as '*'; without
+    --min-time S, which changes how a solve is timed, not its work (estimate adds S)."""
     words, out = [w for w in command.split() if w != "--allow-reflectivity-ge-1"], []  # the scene's, as its name
     for k, w in enumerate(words):
+        if w == "--min-time" or (k and words[k - 1] == "--min-time"):
+            continue
         if k and words[k - 1] in SIZES:
             out.append("*")
         elif re.search(r"\.(xml|obj|json|ff)$", w):
@@ -179,9 +182,11 @@ def estimate(preset, source, experiments, results, machine_label, tokens):
                 for src, secs in found:  # the twin nearest in size: the smallest factor above 1, else the largest
                     f = scale(case, src, machine)
                     if f is not None and (best is None or abs(f - 1) < abs(best[0] - 1)):
-                        best = (f, secs)
+                        best = (f, secs, src)
                 if best:
-                    row["seconds"] = best[0] * best[1] + (PROBE_S if timed else 0.0)
+                    # --min-time S: a short solve is repeated for about S seconds more (a long one runs once)
+                    more = opt(case.command, "--min-time", float, 0.0) - opt(best[2].command, "--min-time", float, 0.0)
+                    row["seconds"] = best[0] * best[1] + max(0.0, more) + (PROBE_S if timed else 0.0)
             rows.append(row)
     return rows
 

@@ -18,6 +18,7 @@
 #include "common/errors.hpp"
 #include "common/launcher.hpp"
 #include "common/record.hpp"
+#include "common/repetitions.hpp"
 #include "common/timer.hpp"
 #include "poisson/cg.hpp"
 #include "poisson/kernels.hpp"
@@ -33,6 +34,7 @@ struct Args : hpcgi::record::Options {
   double tol = 1e-6;
   long max_iter = 0;
   long steps = 0;  // > 0: exactly this many iterations, no tolerance (a benchmark's time per iteration)
+  double min_time = 0;  // --min-time: a short solve repeated, its median repetition kept (common/repetitions.hpp)
   std::string solution_path;
 };
 
@@ -114,6 +116,7 @@ struct Run {
   std::vector<long> sizes;         // the multigrid hierarchy, finest first
   poisson::Check check;
   hpcgi::Outcome outcome;
+  hpcgi::Repetitions reps;  // --min-time
 };
 
 // The data-movement figures of a finished run (rank 0).
@@ -165,6 +168,7 @@ nlohmann::json record_of(const Args& a, const Run& u) {
                                                                      : "host wall clock"}};
   if (!u.fmg_levels.empty()) rec["perf"]["fmg_vectors_per_level"] = u.fmg_levels;
   rec["backend_info"] = u.info;
+  if (a.min_time > 0) rec["repetitions"] = hpcgi::to_json(u.reps);
   return rec;
 }
 
@@ -179,6 +183,7 @@ void print_summary(const Args& a, const Run& u) {
   std::printf("  time: setup %.4f s, solve %.4f s (%.4g ms/iteration, %.4g vectors of N^2 -> %.2f GB/s, "
               "%.4g DOF/s)\n", u.alloc_s + r.init_s, r.solve_s, u.per_iter * 1e3, u.solve_bytes / u.vector_bytes,
               u.gbps, u.dofs);
+  if (!hpcgi::describe(u.reps).empty()) std::printf("  timed: %s\n", hpcgi::describe(u.reps).c_str());
   if (!u.sizes.empty())
     std::printf("  multigrid: %zu levels, N = %ld down to %ld, %sV(1,1) red-black Gauss-Seidel\n", u.sizes.size(),
                 u.sizes.front(), u.sizes.back(), u.fmg_levels.empty() ? "" : "F-cycle of ");
@@ -213,7 +218,10 @@ int solve(const Args& a) {
       since_print.reset();
     }
   };
-  u.r = poisson::run_config(*k, a.cfg, tol, u.max_iter, progress);
+  // x = 0 at every solve's start (Kernels::init): a repetition of --min-time solves the same problem again.
+  u.r = hpcgi::repeat_for(
+      a.min_time, [&] { return poisson::run_config(*k, a.cfg, tol, u.max_iter, progress); },
+      [&](const poisson::CgResult& r) { return u.alloc_s + r.init_s + r.solve_s; }, u.reps);
   if (u.fixed && u.r.status == poisson::Status::max_iter) u.r.status = poisson::Status::steps_done;
   const std::vector<double> x = a.solution_path.empty() ? std::vector<double>() : k->solution();
   u.info = k->info();
@@ -292,6 +300,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(poisson::choice_names<poisson::Halo>()))->capture_default_str();
   app.add_option("--threads", a.cfg.threads, "OpenMP threads (default: OMP_NUM_THREADS, or 1 per MPI rank)")
       ->check(hpcgi::integer_in(1, 4096));
+  hpcgi::add_min_time_option(&app, a.min_time);
   hpcgi::add_record_options(&app, a);
   hpcgi::add_list_backends(app, poisson::describe_backends);
   app.add_option("--solution", a.solution_path, "write u_h as N*N little-endian float64 to FILE");

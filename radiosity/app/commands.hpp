@@ -81,6 +81,7 @@ struct SolveArgs : SceneArgs {
   std::vector<long> snapshots;
   std::string snapshot_prefix;
   bool verify = true;
+  double min_time = 0;  // --min-time: a short solve repeated, its median repetition kept (common/repetitions.hpp)
 };
 void add_solve(CLI::App& app, SolveArgs& a);
 int run_solve(const SolveArgs& a);

@@ -119,6 +119,9 @@ void add_output_options(CLI::App* cmd, SolveArgs& a) {
 void check_given(SolveArgs& a, const GivenOptions& g) {
   if (g.stop->count() > 0 && a.cfg.steps > 0)
     throw CLI::ValidationError("--stop is a rule for --tol; --steps runs a fixed number of steps");
+  if (a.min_time > 0 && !a.snapshots.empty())
+    throw CLI::ValidationError("--min-time repeats the solve, and --snapshots would draw every repetition's: time the "
+                               "solve without snapshots");
   if (a.reference_divide > 0 && a.reference_ff.empty())
     throw CLI::ValidationError("--reference-divide needs --reference-ff, the form factors of that mesh");
   // An option of one backend given with another is refused, not ignored: the record would claim it.
@@ -146,6 +149,7 @@ void add_solve(CLI::App& app, SolveArgs& a) {
   add_reference_options(cmd, a);
   add_gpu_options(cmd, a, g);
   add_output_options(cmd, a);
+  hpcgi::add_min_time_option(cmd, a.min_time);
   cmd->callback([&a, g] { check_given(a, g); });
 }
 

@@ -130,6 +130,7 @@ void add_times_and_perf(json& rec, const SolveReport& r) {
     rec["times_s"]["device_compute"] = res.device_compute_s;
     rec["times_s"]["host_compute"] = res.host_compute_s;
   }
+  if (r.a.min_time > 0) rec["repetitions"] = hpcgi::to_json(r.run.reps);
   rec["perf"] = {{"matrix_bytes", res.matrix_bytes},
                  {"matrix_passes", res.matrix_passes},
                  {"bandwidth_GBps", bandwidth_GBps(res)},
@@ -255,6 +256,7 @@ void print_summary(const SolveReport& r) {
   }
   std::printf("  time: load %.3f s, form factors %.3f s, setup %.4f s, solve %.4f s (%.4g ms/iteration, %.2f GB/s)\n",
               L.load_s, L.ff_load_s, res.setup_s, res.solve_s, per_iteration_s(res) * 1e3, bandwidth_GBps(res));
+  if (!hpcgi::describe(r.run.reps).empty()) std::printf("  timed: %s\n", hpcgi::describe(r.run.reps).c_str());
   if (!res.read_sweep_s.empty()) {
     const double best = *std::min_element(res.read_sweep_s.begin(), res.read_sweep_s.end());
     std::printf("  read sweeps of F's arrays: %.1f MB in %.4g ms at best of %zu (%.2f GB/s); a step took %.2fx that\n",

@@ -29,7 +29,10 @@ SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L) {
       run.snapshot_files.push_back(f);
     };
   // Agreed: a refused configuration is refused by every rank before any collective (solve checks first).
-  run.res = hpcgi::comm::agreed([&] { return solve(L.sys, p.cfg, cb); });
+  // Every solve starts from the same b_0 (cfg.start): a repetition of --min-time solves the same system again.
+  run.res = hpcgi::repeat_for(
+      a.min_time, [&] { return hpcgi::comm::agreed([&] { return solve(L.sys, p.cfg, cb); }); },
+      [](const SolveResult& r) { return r.setup_s + r.solve_s; }, run.reps);
   hpcgi::comm::agreed([&] {
     if (snapshot_error) std::rethrow_exception(snapshot_error);
   });

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "common/repetitions.hpp"
 #include "radiosity/app/solve_load.hpp"
 #include "radiosity/render/camera.hpp"
 #include "radiosity/render/render.hpp"
@@ -15,6 +16,7 @@ struct SolveRun {
   Camera cam;                               // --view on the mesh (the pictures)
   RenderOptions ropt;                       // --exposure
   std::vector<std::string> snapshot_files;  // the snapshots drawn, in order
+  hpcgi::Repetitions reps;                  // --min-time: the repetitions' times (res is the median one's)
 };
 
 // Solves L.sys as p.cfg says, on every rank. A snapshot that could not be written is thrown after the solve.

@@ -6,20 +6,21 @@ from presets import PRESETS, REPORT_JACOBI_ITERS, SCENES, figure42_scene, scene_
 def experiments(preset, p):
     e = {}
     tr = p.get("timing_repeat")  # None: run-case's default, 5
+    mt = f" --min-time {p['min_time']:g}" if p.get("min_time") else ""  # the timed solves' (presets.py)
 
     def long(n):  # plain CG on the CPU at a size whose runs take many minutes: fewer runs (the line says so)
         k = p.get("long_repeat", {}).get(n)
         return f"repeat={k} " if k else ""
     e["table41"] = ("Table 4.1 / Figure 4.1: Poisson CG to 1e-6, MPI processes and the CUDA variants", tr, [
-        *(f"{long(n)}ranks={r} bin/poisson --backend mpi --n {n} --max-iter 100000" for n in p["poisson_n"]
+        *(f"{long(n)}ranks={r} bin/poisson --backend mpi --n {n} --max-iter 100000{mt}" for n in p["poisson_n"]
           for r in p["ranks"]),
-        *(f"{long(n)}bin/poisson --backend openmp --threads {p['threads']} --n {n} --max-iter 100000"
+        *(f"{long(n)}bin/poisson --backend openmp --threads {p['threads']} --n {n} --max-iter 100000{mt}"
           for n in p["poisson_n"]),
-        *(f"bin/poisson --backend {b} --n {n} --max-iter 100000" for n in p["poisson_n"] for b in ("cublas1", "cublas2", "cuda")),
+        *(f"bin/poisson --backend {b} --n {n} --max-iter 100000{mt}" for n in p["poisson_n"] for b in ("cublas1", "cublas2", "cuda")),
         # Beyond the report (issue 19): CG preconditioned by one multigrid V-cycle, on every p and the GPU.
-        *(f"ranks={r} bin/poisson --backend mpi --n {n} --precond mg" for n in p["mg_n"] for r in p["ranks"]),
-        *(f"bin/poisson --backend openmp --threads {p['threads']} --n {n} --precond mg" for n in p["mg_n"]),
-        *(f"bin/poisson --backend cuda --n {n} --precond mg" for n in p["mg_n"]),
+        *(f"ranks={r} bin/poisson --backend mpi --n {n} --precond mg{mt}" for n in p["mg_n"] for r in p["ranks"]),
+        *(f"bin/poisson --backend openmp --threads {p['threads']} --n {n} --precond mg{mt}" for n in p["mg_n"]),
+        *(f"bin/poisson --backend cuda --n {n} --precond mg{mt}" for n in p["mg_n"]),
     ])
     e["formfactors"] = ("Form factors of every scene, computed once (the other radiosity experiments read them)", 1, [
         *(f"bin/radiosity formfactors {SCENES[s][1]}{SCENES[s][2]} -o {{FF_DIR}}/{preset}-{SCENES[s][0]}.ff "
@@ -29,7 +30,7 @@ def experiments(preset, p):
     solve = "bin/radiosity solve"
     e["table42"] = ("Table 4.2: OpenMP Jacobi vs. BiCG-STAB to a relative residual of 1e-6, and Gauss-Seidel beside "
                     "them", tr, [
-        f"{solve} {scene_args(s, preset)} --method {m} --tol 1e-6 --backend openmp --layout aos"
+        f"{solve} {scene_args(s, preset)} --method {m} --tol 1e-6 --backend openmp --layout aos{mt}"
         for s in p["scenes"] for m in ("jacobi", "bicgstab", "gauss-seidel",
                                        # SOR on one thread (several threads couple blocks by over-relaxed Jacobi,
                                        # which may diverge); omega 1.4: the fewest sweeps on room3 in the audit
@@ -39,22 +40,22 @@ def experiments(preset, p):
     e["table43"] = ("Table 4.3: AOS Jacobi to 1e-6: Original (RRV's loop, the report's iterations), Serial, CUDA, "
                     "OpenMP", tr, [
         *(line for s in p["scenes"] for line in (
-            f"{solve} {scene_args(s, preset)} --backend original --steps {REPORT_JACOBI_ITERS[s]}",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend serial --layout aos",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cuda --layout aos")),
-        *(f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend openmp --layout aos" for s in p["scenes"])])
+            f"{solve} {scene_args(s, preset)} --backend original --steps {REPORT_JACOBI_ITERS[s]}{mt}",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend serial --layout aos{mt}",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cuda --layout aos{mt}")),
+        *(f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend openmp --layout aos{mt}" for s in p["scenes"])])
     # Table 4.4 repeats 4.3's Original column in the report: here its own runs (appended: the others keep their ids)
     e["table44"] = ("Table 4.4: SOA Jacobi to 1e-6: Original (RRV's loop, the report's iterations), Serial, CUDA "
                     "(cuBLAS per channel, and fused), OpenMP", tr, [
         *(line for s in p["scenes"] for line in (
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend serial --layout soa",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa --fused",
-            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend openmp --layout soa")),
-        *(f"{solve} {scene_args(s, preset)} --backend original --steps {REPORT_JACOBI_ITERS[s]}" for s in p["scenes"])])
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend serial --layout soa{mt}",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa{mt}",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend cublas --layout soa --fused{mt}",
+            f"{solve} {scene_args(s, preset)} --tol 1e-6 --backend openmp --layout soa{mt}")),
+        *(f"{solve} {scene_args(s, preset)} --backend original --steps {REPORT_JACOBI_ITERS[s]}{mt}" for s in p["scenes"])])
     hs = p["hybrid_scene"]
     e["table45"] = (f"Table 4.5: hybrid CPU/GPU Jacobi to 1e-6 on scene {hs}, distribution factor 0.0 .. 1.0", tr, [
-        f"{solve} {scene_args(hs, preset)} --tol 1e-6 --backend hybrid --layout aos --distribution {d / 10:.1f}"
+        f"{solve} {scene_args(hs, preset)} --tol 1e-6 --backend hybrid --layout aos --distribution {d / 10:.1f}{mt}"
         for d in range(11)])
     # The report's scene 3 (RRV's room3.xml) from its camera; ci (no room3 among its scenes) coarsens it
     # (--divide 8: 5960 patches) and takes a small hemicube, so that its run is seconds.
