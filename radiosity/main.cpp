@@ -52,7 +52,11 @@ int main(int argc, char** argv) {
   // the whole run.
   const bool ff_cmd = app.got_subcommand("formfactors"), solve_cmd = app.got_subcommand("solve");
   const bool relight_cmd = app.got_subcommand("relight");
-  const bool mpi_solve = (solve_cmd && solve.cfg.backend == "mpi") || (relight_cmd && relight.cfg.backend == "mpi");
+  const auto distributed = [](const std::string& name) {
+    const radiosity::SolveBackend* b = radiosity::find_backend(name);
+    return b && b->distributed;
+  };
+  const bool mpi_solve = (solve_cmd && distributed(solve.cfg.backend)) || (relight_cmd && distributed(relight.cfg.backend));
   const bool launched = hpcgi::launcher_world_size() > 0;
   const bool want_mpi = hpcgi::comm::built() && ((ff_cmd && launched) || mpi_solve);
   int status = hpcgi::run_main("radiosity", [&]() -> int {

@@ -18,17 +18,16 @@ namespace radiosity::app {
 
 int run_solve(const SolveArgs& a) {
   hpcgi::Timer total;
-  const SolvePlan plan = plan_solve(a);
-  Problem problem = load_mesh(a, plan);
+  const SolvePlan plan = plan_solve(a);  // the only reader of the options
+  Loaded mesh = load_mesh(plan);
   References refs;
-  solve_reference_at(ReferencePoint::before_form_factors, a, problem, refs);  // --reference-ff's, freed before ours
-  read_form_factors(a, plan, problem);
-  solve_reference_at(ReferencePoint::before_rounding, a, problem, refs);  // on the file's values, before the build
-  build_matrix(a, plan, problem);
-  const Problem& loaded = problem;
-  const SolveRun run = run_solver(a, plan, loaded);
-  const Checked checked = verify_solve(a, plan, loaded, std::move(refs), run.res);
-  const SolveReport report{a, plan, loaded, run, checked, total.seconds()};
+  solve_reference_at(ReferencePoint::before_form_factors, plan, mesh, refs);  // --reference-ff's, freed before ours
+  Loaded read = read_form_factors(plan, std::move(mesh));
+  solve_reference_at(ReferencePoint::before_rounding, plan, read, refs);  // on the file's values, before the build
+  const Loaded loaded = build_matrix(plan, std::move(read));
+  const SolveRun run = run_solver(plan, loaded);
+  const Checked checked = verify_solve(plan, loaded, std::move(refs), run.res);
+  const SolveReport report{plan, loaded, run, checked, total.seconds()};
   finish_solve(report, solve_record(report));
   return 0;
 }

@@ -1,7 +1,7 @@
 #include "radiosity/app/solve_load.hpp"
 
 #include <cstdio>
-#include <filesystem>
+#include <utility>
 
 #include "common/comm.hpp"
 #include "common/errors.hpp"
@@ -16,9 +16,9 @@
 namespace radiosity::app {
 namespace {
 
-void mesh_of(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void mesh_of(const SolvePlan& p, Loaded& L) {
   L.m = hpcgi::comm::agreed([&] {
-    Mesh mesh = load_scene(a, &L.load_s);
+    Mesh mesh = load_scene(p.scene, &L.load_s);
     require_rows_for_ranks(mesh.size(), p.dist ? p.ranks : 1);
     return mesh;
   });
@@ -27,23 +27,20 @@ void mesh_of(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   L.patches = std::to_string(L.n) + " patches";
 }
 
-// A sparse file (version 2) is read as it is stored, never dense (ff_matrix_file.hpp). Its header says so; what
-// is no file at all is taken for a dense one here (the memory check refuses it from the patch count, the load
-// by what it is).
-void read_file_info(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+// The plan's header of --ff checked against the mesh (not read again). A sparse file (version 2) is read as it is
+// stored, never dense (ff_matrix_file.hpp). What is no file at all is taken for a dense one here (the memory check
+// refuses it from the patch count, the load by what it is).
+void read_file_info(const SolvePlan& p, Loaded& L) {
   L.file_info = hpcgi::comm::agreed([&] {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(a.ff, ec)) return FormFactorFileInfo{};
+    if (!p.file) return FormFactorFileInfo{};
     L.file_checked = true;
-    FormFactorFileInfo info = check_any_form_factor_file(a.ff, L.m);
-    if (info.version != 1) plan_sparse_file(a, *p.backend, info);
-    return info;
+    return check_form_factor_header(*p.file, L.m);
   });
   L.sparse_file = L.file_info.version != 1;
 }
 
 // What a process holds of a solve, in words: the file's values, their 16-bit copy, the vectors, the picture.
-std::string held_in_words(const SolvePlan& p, const Problem& L, double copy_bytes, double picture_bytes) {
+std::string held_in_words(const SolvePlan& p, const Loaded& L, double copy_bytes, double picture_bytes) {
   const std::string values = L.sparse_file ? L.file_info.storage + " " + L.file_info.precision : "dense float32";
   const std::string rows =
       p.dist ? "of rank " + std::to_string(p.rank) + "'s " + std::to_string(L.block.rows()) + " rows " : "";
@@ -56,7 +53,7 @@ std::string held_in_words(const SolvePlan& p, const Problem& L, double copy_byte
 // file's matrix, a 16-bit dense copy, the vectors; a CSR copy is checked once its size is known (the kept values
 // are counted after loading). --max-memory-per-rank is checked first, the same on every rank (the split depends
 // on the mesh only).
-void check_memory(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void check_memory(const SolvePlan& p, Loaded& L) {
   const size_t n = L.n;
   const bool dense16 = p.storage == FFStorage::dense && p.values != FFValues::float32, sparse = L.sparse_file;
   const double sparse_bytes = double(L.file_info.payload_bytes);
@@ -65,7 +62,7 @@ void check_memory(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   // compute can be off balance by at most their share (lights, usually a few percent).
   const std::vector<uint64_t> row_work(n, 1);
   // Rank 0 draws the pictures: an RGB image, its depth buffer and its colour sums (render.cpp), 35 bytes a pixel.
-  const double picture_bytes = (a.png.empty() && a.snapshots.empty()) ? 0.0 : 35.0 * double(p.width) * double(p.height);
+  const double picture_bytes = (p.png.empty() && p.snapshots.empty()) ? 0.0 : 35.0 * double(p.width) * double(p.height);
   const NeedsAt needs = [&](int ranks) {
     const std::vector<size_t> b = dist::split_by_work(row_work, ranks);  // ranks > 1 for a serial run: what mpi would hold
     std::vector<RankNeed> v;
@@ -101,23 +98,23 @@ std::unique_ptr<FormFactorMatrix> dense_matrix(FormFactors&& ff) {
 
 // The file's values as stored, in the one matrix: a sparse file's, an MPI rank's block of rows, or every row. The
 // header read once (read_file_info) is not read again.
-void read_values(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void read_values(const SolvePlan& p, Loaded& L) {
   hpcgi::Timer t;
   if (!L.file_checked)  // no file: refused here by what it is, as every reader refuses it
-    hpcgi::comm::agreed([&] { check_any_form_factor_file(a.ff, L.m); });
+    hpcgi::comm::agreed([&] { check_any_form_factor_file(p.ff, L.m); });
   L.params = L.file_info.params;
   if (L.sparse_file) {
-    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(a.ff, L.file_info));
+    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(p.ff, L.file_info));
   } else if (p.dist) {
 #ifdef HAVE_MPI
     dist::FileStats st;
-    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, L.block, &st));
+    L.matrix = dense_matrix(dist::load_form_factor_rows(p.ff, L.file_info, L.block, &st));
     L.rank_read_s = st.io_s;
     L.rank_checksum_s = st.checksum_s;
     L.rank_chain_s = st.chain_s;
 #endif
   } else {
-    L.matrix = dense_matrix(load_form_factors(a.ff, L.file_info));
+    L.matrix = dense_matrix(load_form_factors(p.ff, L.file_info));
   }
   L.ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
@@ -131,26 +128,26 @@ void read_values(const SolveArgs& a, const SolvePlan& p, Problem& L) {
 }
 
 // The file's dense float32 values (this process's rows), or null for a sparse file.
-const float* file_values(const Problem& L) { return L.sparse_file ? nullptr : dense_float32(L.sys); }
+const float* file_values(const Loaded& L) { return L.sparse_file ? nullptr : dense_float32(L.sys); }
 
 // The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
 // (the threshold dropped some), *bridges (compressed's) and *runs (the runs storage's).
-FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, Problem& L, bool* dropped, size_t* bridges,
+FFStorage choose_storage(const SolvePlan& p, Loaded& L, bool* dropped, size_t* bridges,
                          RunCounts* runs) {
   const System& sys = L.sys;
   // Counted over this process's rows (on MPI ranks: summed over the ranks).
   StorageCounts c;
   c.n = L.n;
   if (!L.sparse_file)
-    c = count_storages(file_values(L), L.n, sys.reflectivity, a.threshold, readable_storages(*p.backend, p.values),
+    c = count_storages(file_values(L), L.n, sys.reflectivity, p.threshold, readable_storages(*p.backend, p.values),
                        L.block.begin, L.block.end);
   uint64_t counts[6] = {c.kept, c.bridges, c.rows_needed, c.runs.runs, c.runs.entries,
-                        !L.sparse_file && a.threshold > 0 ? count_kept(file_values(L), L.n, sys.reflectivity, 0, L.block.begin,
+                        !L.sparse_file && p.threshold > 0 ? count_kept(file_values(L), L.n, sys.reflectivity, 0, L.block.begin,
                                                                        L.block.end)
                                                           : c.kept};
   hpcgi::comm::sum(counts, 6);
   L.kept = L.sparse_file ? L.matrix->kept() : size_t(counts[0]);
-  *dropped = !L.sparse_file && a.threshold > 0 && L.kept != size_t(counts[5]);
+  *dropped = !L.sparse_file && p.threshold > 0 && L.kept != size_t(counts[5]);
   *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[1]);
   *runs = L.sparse_file ? L.matrix->runs() : RunCounts{size_t(counts[3]), size_t(counts[4])};
   if (L.sparse_file) return L.matrix->view().storage;
@@ -160,7 +157,7 @@ FFStorage choose_storage(const SolveArgs& a, const SolvePlan& p, Problem& L, boo
 }
 
 // The dense file's values in the run's storage and precision (the dense values are given back).
-void convert_dense(const SolveArgs& a, const SolvePlan& p, Problem& L, size_t bridges, const RunCounts& runs) {
+void convert_dense(const SolvePlan& p, Loaded& L, size_t bridges, const RunCounts& runs) {
   const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges, runs);
   // The dense file's values and the copy are held at once while it is built: that is what the limit must allow.
   const double held = L.file_bytes + bytes + vector_bytes(L.n);
@@ -177,7 +174,7 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, Problem& L, size_t br
   FFMatrixOptions opt;
   opt.storage = L.storage;
   opt.values = p.values;
-  opt.threshold = a.threshold;
+  opt.threshold = p.threshold;
   // The dense values are no longer needed once the run's matrix is built: replacing the one matrix gives them back.
   L.matrix = std::make_unique<FormFactorMatrix>(file_values(L), L.n, L.sys.reflectivity, opt);
   L.sys.matrix = L.matrix->view();
@@ -186,7 +183,7 @@ void convert_dense(const SolveArgs& a, const SolvePlan& p, Problem& L, size_t br
 #ifdef HAVE_MPI
 // Each row's entries in opt's storage (its kept values, and compressed's bridges; runs: its stored values) at i and
 // its runs (runs storage) at n + i, counted in this rank's dense block and summed over the ranks.
-std::vector<uint64_t> row_counts(const Problem& L, const FFMatrixOptions& opt) {
+std::vector<uint64_t> row_counts(const Loaded& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
   std::vector<uint64_t> counts(2 * n, 0);
   const float* F = file_values(L);
@@ -212,7 +209,7 @@ std::vector<uint64_t> row_counts(const Problem& L, const FFMatrixOptions& opt) {
 // count that were read, the ranks' counts summed, the blocks split again, and each rank reads its new block (the
 // file a second time; the first block is freed before). --max-memory-per-rank is checked again here on the new
 // blocks: the dense rows a rank reads and its matrix (ff_storage_bytes) are held at once while it is built.
-void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, Problem& L, const FFMatrixOptions& opt) {
+void balance_rows_by_cost(const SolvePlan& p, Loaded& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
   const std::vector<uint64_t> counts = row_counts(L, opt);
   std::vector<uint64_t> work(n);
@@ -240,7 +237,7 @@ void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, Problem& L, co
   if (block.begin != L.block.begin || block.end != L.block.end) {
     L.matrix.reset();  // the rows read before: counted, no longer needed
     dist::FileStats st;
-    L.matrix = dense_matrix(dist::load_form_factor_rows(a.ff, L.file_info, block, &st));
+    L.matrix = dense_matrix(dist::load_form_factor_rows(p.ff, L.file_info, block, &st));
     L.sys.matrix = L.matrix->view();
     L.rank_read_s += st.io_s;
     L.rank_checksum_s += st.checksum_s;
@@ -252,14 +249,14 @@ void balance_rows_by_cost(const SolveArgs& a, const SolvePlan& p, Problem& L, co
 // Backend mpi in a storage other than dense float32: each rank's rows in that storage, built from the dense file's
 // rows (a sparse storage's rows balanced first: balance_rows_by_cost). The float16 scale is every rank's largest
 // value, so that every rank rounds as one process.
-void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void build_rank_matrix(const SolvePlan& p, Loaded& L) {
   const size_t n = L.n;
   FFMatrixOptions opt;
   opt.storage = L.storage;
   opt.values = p.values;
-  opt.threshold = a.threshold;
+  opt.threshold = p.threshold;
   opt.largest = float(hpcgi::comm::max(double(largest_abs(file_values(L), L.block.rows() * n))));
-  if (L.storage != FFStorage::dense) balance_rows_by_cost(a, p, L, opt);
+  if (L.storage != FFStorage::dense) balance_rows_by_cost(p, L, opt);
   L.matrix = hpcgi::comm::agreed([&] {  // the rank's dense rows are given back as the one matrix is replaced
     return std::make_unique<FormFactorMatrix>(file_values(L), n, L.sys.reflectivity, opt, L.block.begin,
                                               L.block.end);
@@ -275,15 +272,15 @@ void build_rank_matrix(const SolveArgs& a, const SolvePlan& p, Problem& L) {
 
 // The storage the run takes and what it keeps (counted on the file's values), and so whether the run's matrix is the
 // file's values as read.
-void choose(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void choose(const SolvePlan& p, Loaded& L) {
   hpcgi::Timer t;
-  L.storage = choose_storage(a, p, L, &L.dropped, &L.bridges, &L.runs);
+  L.storage = choose_storage(p, L, &L.dropped, &L.bridges, &L.runs);
   L.same_matrix = L.sparse_file || (p.values == FFValues::float32 && !L.dropped);
   L.choose_s = t.seconds();
 }
 
 // The run's form factors: threshold, storage and precision, as chosen.
-void build(const SolveArgs& a, const SolvePlan& p, Problem& L) {
+void build(const SolvePlan& p, Loaded& L) {
   hpcgi::Timer t;
   const bool dropped = L.dropped;
   const size_t bridges = L.bridges;
@@ -291,15 +288,15 @@ void build(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   const bool as_file = L.storage == FFStorage::dense && p.values == FFValues::float32;
   L.matrix_storage_bytes = 4 * L.n2;  // all ranks together
   if (as_file) {
-    if (dropped) apply_threshold(L.matrix->dense_float32_values(), L.n, a.threshold, L.block.rows());
+    if (dropped) apply_threshold(L.matrix->dense_float32_values(), L.n, p.threshold, L.block.rows());
   } else if (L.sparse_file) {
     L.matrix_storage_bytes = L.matrix->bytes();
   } else if (p.dist) {
 #ifdef HAVE_MPI
-    build_rank_matrix(a, p, L);
+    build_rank_matrix(p, L);
 #endif
   } else {
-    convert_dense(a, p, L, bridges, runs);
+    convert_dense(p, L, bridges, runs);
     L.matrix_storage_bytes = L.matrix->bytes();
   }
   size_t rows_without_reflection = 0;
@@ -308,7 +305,7 @@ void build(const SolveArgs& a, const SolvePlan& p, Problem& L) {
   // of them; the others compute them.
   L.skipped_rows =
       p.backend->any_storage || p.backend->distributed || L.storage != FFStorage::dense ? rows_without_reflection : 0;
-  if (p.cfg.backend == "original")  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
+  if (p.backend->rrv_loop)  // RRV's cache lines: a (pointer, float) pair of 16 bytes per kept value, at most
     hpcgi::require_host_memory("backend original's cache lines for " + L.patches,
                                16.0 * (double(L.kept) + double(rows_without_reflection) * double(L.n)));
   L.ff_build_s = L.choose_s + t.seconds();
@@ -324,28 +321,27 @@ std::string gib(double bytes) {
 
 double vector_bytes(size_t n) { return (2 * (8 + 2) * 3 * 8 + 8 * 3 * 8) * double(n); }
 
-Problem load_mesh(const SolveArgs& a, const SolvePlan& p) {
-  Problem P;
-  mesh_of(a, p, P);
-  return P;
+Loaded load_mesh(const SolvePlan& p) {
+  Loaded L;
+  mesh_of(p, L);
+  return L;
 }
 
-void read_form_factors(const SolveArgs& a, const SolvePlan& p, Problem& P) {
-  read_file_info(a, p, P);
-  check_memory(a, p, P);
-  read_values(a, p, P);
-  choose(a, p, P);
+Loaded read_form_factors(const SolvePlan& p, Loaded&& mesh) {
+  Loaded L = std::move(mesh);
+  read_file_info(p, L);
+  check_memory(p, L);
+  read_values(p, L);
+  choose(p, L);
+  return L;
 }
 
-void build_matrix(const SolveArgs& a, const SolvePlan& p, Problem& P) {
-  build(a, p, P);
+Loaded build_matrix(const SolvePlan& p, Loaded&& read) {
+  Loaded L = std::move(read);
+  build(p, L);
+  return L;
 }
 
-Problem load_solve(const SolveArgs& a, const SolvePlan& p) {
-  Problem P = load_mesh(a, p);
-  read_form_factors(a, p, P);
-  build_matrix(a, p, P);
-  return P;
-}
+Loaded load_solve(const SolvePlan& p) { return build_matrix(p, read_form_factors(p, load_mesh(p))); }
 
 }  // namespace radiosity::app

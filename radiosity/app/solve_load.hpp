@@ -1,7 +1,7 @@
 // Phase 2 of `bin/radiosity solve` (solve_cmd.cpp): the load. The scene, its mesh, the form factors of --ff in the
 // one FormFactorMatrix (dense: every row, or an MPI rank's block; a sparse file as stored), the
 // matrix the run solves (threshold, storage, precision) and the memory checks before anything is allocated. Its
-// three steps return and fill one Problem; run_solve calls them in turn, and between them, where memory asks for it,
+// three steps return one Loaded, each from the one before; run_solve calls them in turn, and between them, where memory asks for it,
 // the error reference's own phase (solve_verify.hpp: before the run's form factors are read, and before the file's
 // values are thresholded or rounded). The load never calls it.
 #pragma once
@@ -17,7 +17,7 @@
 
 namespace radiosity::app {
 
-struct Problem {
+struct Loaded {
   Mesh m;
   size_t n = 0;
   double n2 = 0;          // n², the dense matrix's entries
@@ -47,16 +47,17 @@ struct Problem {
   double choose_s = 0;  // choosing the storage (counting the kept values), part of ff_build_s
 };
 
-// The load's steps. Each throws hpcgi::UsageError (agreed) for a scene or file that does not fit the request or
-// the memory. The mesh: a Problem without form factors.
-Problem load_mesh(const SolveArgs& a, const SolvePlan& p);
+// The load's steps, each taking the step before's value and returning its own. Each throws hpcgi::UsageError
+// (agreed) for a scene or file that does not fit the request or the memory.
+// The mesh: a Loaded without form factors.
+Loaded load_mesh(const SolvePlan& p);
 // The --ff file, its header read and checked once: memory, its values as stored in the one matrix, the storage the
 // run will take (so same_matrix).
-void read_form_factors(const SolveArgs& a, const SolvePlan& p, Problem& P);
+Loaded read_form_factors(const SolvePlan& p, Loaded&& mesh);
 // The run's matrix from the file's values: threshold, storage, precision (the file's values are given back).
-void build_matrix(const SolveArgs& a, const SolvePlan& p, Problem& P);
+Loaded build_matrix(const SolvePlan& p, Loaded&& read);
 // The three in turn, for a caller that takes no error reference between them.
-Problem load_solve(const SolveArgs& a, const SolvePlan& p);
+Loaded load_solve(const SolvePlan& p);
 
 // The bytes in GiB, as the memory messages say them.
 std::string gib(double bytes);

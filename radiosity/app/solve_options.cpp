@@ -124,14 +124,19 @@ void check_given(SolveArgs& a, const GivenOptions& g) {
                                "solve without snapshots");
   if (a.reference_divide > 0 && a.reference_ff.empty())
     throw CLI::ValidationError("--reference-divide needs --reference-ff, the form factors of that mesh");
-  // An option of one backend given with another is refused, not ignored: the record would claim it.
-  for (const auto& [opt, backend] :
-       {std::pair{g.fused, "cublas"}, {g.distribution, "hybrid"}, {g.overlap, "hybrid"}})
-    if (opt->count() > 0 && a.cfg.backend != backend)
-      throw CLI::ValidationError(opt->get_name() + " applies to --backend " + backend + ", not " + a.cfg.backend);
-  if (g.layout->count() == 0)
-    for (const auto& b : solve_backends())
-      if (b.name == a.cfg.backend && b.layouts.size() == 1) a.cfg.layout = b.layouts.front();
+  // An option of some backends given with another is refused, not ignored: the record would claim it. The registry
+  // says which take it (an unknown backend is the plan's to refuse).
+  const SolveBackend* backend = find_backend(a.cfg.backend);
+  if (!backend) return;
+  for (const auto& [opt, fact] : {std::pair{g.fused, &SolveBackend::fuses},
+                                  {g.distribution, &SolveBackend::splits_rows}, {g.overlap, &SolveBackend::splits_rows}})
+    if (opt->count() > 0 && !(backend->*fact)) {
+      std::string takers;
+      for (const SolveBackend& b : solve_backends())
+        if (b.*fact) takers += (takers.empty() ? "" : " or ") + b.name;
+      throw CLI::ValidationError(opt->get_name() + " applies to --backend " + takers + ", not " + a.cfg.backend);
+    }
+  if (g.layout->count() == 0 && backend->layouts.size() == 1) a.cfg.layout = backend->layouts.front();
 }
 
 }  // namespace

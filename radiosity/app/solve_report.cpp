@@ -17,14 +17,14 @@ using nlohmann::json;
 json or_null(bool given, const json& v) { return given ? v : json(); }
 
 json params_json(const SolveReport& r) {
-  const SolveArgs& a = r.a;
-  const SolveConfig& cfg = r.p.cfg;
+  const SolvePlan& p = r.p;
+  const SolveConfig& cfg = p.cfg;
   const HemicubeParams& hemicube = r.L.params;
-  const bool hybrid = cfg.backend == "hybrid", fixed = cfg.steps > 0;
+  const bool split = r.p.backend->splits_rows, fixed = cfg.steps > 0;
   return {{"command", "solve"},
-          {"scene", a.scene},
+          {"scene", p.scene.scene},
           {"patches", r.L.m.size()},
-          {"divide", a.load.divide},
+          {"divide", p.scene.load.divide},
           {"method", to_string(cfg.method)},
           {"layout", to_string(cfg.layout)},
           {"backend", cfg.backend},
@@ -40,22 +40,22 @@ json params_json(const SolveReport& r) {
           {"hemicube", hemicube.resolution},
           {"weights", to_string(hemicube.weights)},
           {"ff_threshold", hemicube.threshold},
-          {"ff_file", a.ff},
+          {"ff_file", p.ff},
           {"storage", to_string(r.L.storage)},
-          {"storage_requested", a.storage},
+          {"storage_requested", p.storage ? to_string(*p.storage) : "auto"},
           {"ff_precision", to_string(r.p.values)},
-          {"threshold", a.threshold},
+          {"threshold", p.threshold},
           {"channels", to_string(cfg.channels)},
-          {"reference_ff", or_null(!a.reference_ff.empty(), a.reference_ff)},
-          {"reference_divide", or_null(a.reference_divide > 0, a.reference_divide)},
-          {"fused", or_null(cfg.backend == "cublas", cfg.fused)},
-          {"distribution", or_null(hybrid, cfg.distribution)},
-          {"overlap", or_null(hybrid, cfg.overlap)}};
+          {"reference_ff", or_null(!p.reference_ff.empty(), p.reference_ff)},
+          {"reference_divide", or_null(p.reference_divide > 0, p.reference_divide)},
+          {"fused", or_null(r.p.backend->fuses, cfg.fused)},
+          {"distribution", or_null(split, cfg.distribution)},
+          {"overlap", or_null(split, cfg.overlap)}};
 }
 
 json result_json(const SolveReport& r) {
   const SolveResult& res = r.run.res;
-  const Problem& L = r.L;
+  const Loaded& L = r.L;
   json j = {{"status", to_string(res.status)},
             {"converged", res.status == SolveStatus::converged},
             {"iterations", res.iterations},
@@ -130,7 +130,7 @@ void add_times_and_perf(json& rec, const SolveReport& r) {
     rec["times_s"]["device_compute"] = res.device_compute_s;
     rec["times_s"]["host_compute"] = res.host_compute_s;
   }
-  if (r.a.min_time > 0) rec["repetitions"] = hpcgi::to_json(r.run.reps);
+  if (r.p.min_time > 0) rec["repetitions"] = hpcgi::to_json(r.run.reps);
   rec["perf"] = {{"matrix_bytes", res.matrix_bytes},
                  {"matrix_passes", res.matrix_passes},
                  {"bandwidth_GBps", bandwidth_GBps(res)},
@@ -229,17 +229,16 @@ json history_json(const SolveResult& res, const SolveConfig& cfg) {
 }
 
 void print_summary(const SolveReport& r) {
-  const SolveArgs& a = r.a;
   const SolveConfig& cfg = r.p.cfg;
-  const Problem& L = r.L;
+  const Loaded& L = r.L;
   const SolveResult& res = r.run.res;
-  std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", a.scene.c_str(), L.m.size(),
+  std::printf("solve: %s, %zu patches, %s %s %s %s, %d threads, %d channel%s\n", r.p.scene.scene.c_str(), L.m.size(),
               to_string(cfg.method).c_str(), to_string(cfg.layout).c_str(), cfg.backend.c_str(),
               to_string(cfg.precision).c_str(), res.threads,
               res.channels, res.channels == 1 ? " (grey scene)" : "s");
   std::printf("  form factors: %s%s %s, threshold %g: %zu of %.0f kept (%.2f%%), %.1f MB; %zu rows skipped (reflectivity 0)\n",
               to_string(L.storage), !r.p.storage ? " (auto: the fewest bytes per step, sparse below half of dense's)" : "",
-              to_string(r.p.values), a.threshold, L.kept, L.n2, 100.0 * double(L.kept) / L.n2,
+              to_string(r.p.values), r.p.threshold, L.kept, L.n2, 100.0 * double(L.kept) / L.n2,
               L.matrix_storage_bytes / 1e6, L.skipped_rows);
   const bool sor = cfg.method == Method::sor;
   if (cfg.stop != StopRule{} || cfg.start != Start::rrv || sor)
@@ -276,17 +275,17 @@ void finish_solve(const SolveReport& r, const nlohmann::json& rec) {
     hpcgi::finish(r.c.outcome, true);
     return;
   }
-  if (!r.a.quiet) print_summary(r);
+  if (!r.p.scene.quiet) print_summary(r);
   // A run that is no answer (failed, stopped at --max-iter, disagreed with its check) is no scene and no picture:
   // only its record is written.
   const bool answer = r.c.outcome.status == hpcgi::kExitOk;
   const SolveRun& run = r.run;
-  if (answer && !r.a.output_xml.empty()) write_rrv_xml(r.a.output_xml, r.L.m, run.res.B);
-  if (answer && !r.a.png.empty())
-    write_png(r.a.png, render(r.L.m, run.res.B, run.cam, r.p.width, r.p.height, run.ropt));
-  if (!r.a.quiet)
+  if (answer && !r.p.output_xml.empty()) write_rrv_xml(r.p.output_xml, r.L.m, run.res.B);
+  if (answer && !r.p.png.empty())
+    write_png(r.p.png, render(r.L.m, run.res.B, run.cam, r.p.width, r.p.height, run.ropt));
+  if (!r.p.scene.quiet)
     for (const auto& f : run.snapshot_files) std::printf("  snapshot %s\n", f.c_str());
-  hpcgi::record::emit(rec, r.a);
+  hpcgi::record::emit(rec, r.p.scene);
   hpcgi::finish(r.c.outcome, r.p.dist);
 }
 

@@ -11,9 +11,8 @@ namespace radiosity::app {
 
 // Everything the report says, from the phases before it.
 struct SolveReport {
-  const SolveArgs& a;
   const SolvePlan& p;
-  const Problem& L;
+  const Loaded& L;
   const SolveRun& run;
   const Checked& c;
   double total_s;  // since the run began

@@ -1,26 +1,28 @@
 #include "radiosity/app/solve_run.hpp"
 
 #include <exception>
-#include <set>
+#include <map>
+#include <string>
 
 #include "common/comm.hpp"
 #include "radiosity/render/png_writer.hpp"
 
 namespace radiosity::app {
 
-SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L) {
+SolveRun run_solver(const SolvePlan& p, const Loaded& L) {
   SolveRun run;
-  run.cam = hpcgi::comm::agreed([&] { return parse_view(a.view, L.m); });
-  run.ropt.exposure = a.exposure;
-  const std::set<long> snaps(a.snapshots.begin(), a.snapshots.end());
+  run.cam = hpcgi::comm::agreed([&] { return parse_view(p.view, L.m); });
+  run.ropt.exposure = p.exposure;
+  const std::map<long, std::string> snaps(p.snapshots.begin(), p.snapshots.end());
   IterationCallback cb;
   // On every rank (fetching B is collective), drawn by rank 0. A failure to write is kept until the solve ends: a
   // rank that left the solve early would leave the others waiting in its collectives.
   std::exception_ptr snapshot_error;
   if (!snaps.empty())
     cb = [&](long it, const std::vector<Rgb>& B) {
-      if (!snaps.count(it)) return;
-      const std::string f = snapshot_file(a, it);
+      const auto snap = snaps.find(it);
+      if (snap == snaps.end()) return;
+      const std::string& f = snap->second;
       try {
         if (p.root && !snapshot_error) write_png(f, render(L.m, B, run.cam, p.width, p.height, run.ropt));
       } catch (...) {
@@ -31,7 +33,7 @@ SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L) {
   // Agreed: a refused configuration is refused by every rank before any collective (solve checks first).
   // Every solve starts from the same b_0 (cfg.start): a repetition of --min-time solves the same system again.
   run.res = hpcgi::repeat_for(
-      a.min_time, [&] { return hpcgi::comm::agreed([&] { return solve(L.sys, p.cfg, cb); }); },
+      p.min_time, [&] { return hpcgi::comm::agreed([&] { return solve(L.sys, p.cfg, cb); }); },
       [](const SolveResult& r) { return r.setup_s + r.solve_s; }, run.reps);
   hpcgi::comm::agreed([&] {
     if (snapshot_error) std::rethrow_exception(snapshot_error);

@@ -20,6 +20,6 @@ struct SolveRun {
 };
 
 // Solves L.sys as p.cfg says, on every rank. A snapshot that could not be written is thrown after the solve.
-SolveRun run_solver(const SolveArgs& a, const SolvePlan& p, const Problem& L);
+SolveRun run_solver(const SolvePlan& p, const Loaded& L);
 
 }  // namespace radiosity::app

@@ -23,8 +23,9 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
     ref.channels = Channels::three;
     ref.ff_threshold = 0;
     ref.fused = ref.overlap = false;
-    if (cfg.backend == "original") ref.method = Method::jacobi;
-    if (cfg.backend == "serial") ref.threads = 1;  // gauss-seidel and sor: the same one block of rows
+    const SolveBackend& b = require_backend(cfg.backend);
+    if (b.rrv_loop) ref.method = Method::jacobi;  // RRV's loop is Jacobi's
+    if (b.one_thread) ref.threads = 1;            // gauss-seidel and sor: the same one block of rows
     ref.history = false;
     SolveResult r = solve(sys, ref);
     v.reference_iterations = r.iterations;
@@ -45,58 +46,58 @@ Verification verify(const System& sys, const SolveConfig& cfg, const SolveResult
 namespace {
 
 // The error reference from --reference-ff (and --reference-divide's finer mesh), carried onto m.
-ErrorReference reference_from_file(const SolveArgs& a, const Mesh& m) {
+ErrorReference reference_from_file(const SolvePlan& p, const Mesh& m) {
   Mesh fine;
-  if (a.reference_divide > 0) {
-    LoadOptions lo = a.load;
-    lo.divide = a.reference_divide;
-    fine = load_rrv_scene(a.scene, lo);
+  if (p.reference_divide > 0) {
+    LoadOptions lo = p.scene.load;
+    lo.divide = p.reference_divide;
+    fine = load_rrv_scene(p.scene.scene, lo);
   }
-  const Mesh& rm = a.reference_divide > 0 ? fine : m;
+  const Mesh& rm = p.reference_divide > 0 ? fine : m;
   const double rn = double(rm.size());
   hpcgi::require_host_memory("the error reference on " + std::to_string(rm.size()) + " patches (its dense float32 "
                              "form factors " + gib(4 * rn * rn) + ", vectors " + gib(vector_bytes(rm.size())) + ")",
                              4 * rn * rn + vector_bytes(rm.size()));
-  const FormFactors rff = load_form_factors(a.reference_ff, rm);
+  const FormFactors rff = load_form_factors(p.reference_ff, rm);
   ErrorReference ref = converged_reference(make_system(rm, rff.values.data()), "");
   char what[96];
   std::snprintf(what, sizeof what, " (hemicube R=%d, %zu patches, divide %g)", rff.params.resolution, rm.size(),
-                rm.size() == m.size() ? a.load.divide : a.reference_divide);
-  ref.of = a.reference_ff + what;
-  if (a.reference_divide > 0 && mesh_hash(fine) != mesh_hash(m)) ref.B = area_weighted_onto(m, fine, ref.B);
+                rm.size() == m.size() ? p.scene.load.divide : p.reference_divide);
+  ref.of = p.reference_ff + what;
+  if (p.reference_divide > 0 && mesh_hash(fine) != mesh_hash(m)) ref.B = area_weighted_onto(m, fine, ref.B);
   return ref;
 }
 
 }  // namespace
 
-void solve_reference_at(ReferencePoint at, const SolveArgs& a, const Problem& P, References& R) {
-  if (!a.verify || R.have) return;
+void solve_reference_at(ReferencePoint at, const SolvePlan& p, const Loaded& L, References& R) {
+  if (!p.verify || R.have) return;
   switch (at) {
     case ReferencePoint::before_form_factors:
-      if (a.reference_ff.empty()) return;
-      R.ref = reference_from_file(a, P.m);
+      if (p.reference_ff.empty()) return;
+      R.ref = reference_from_file(p, L.m);
       R.from_file = true;
       break;
     case ReferencePoint::before_rounding:
-      if (P.same_matrix) return;  // the run solves the file's values as they are: its reference can wait for it
-      R.ref = hpcgi::comm::agreed([&] { return converged_reference(P.sys, ""); });
+      if (L.same_matrix) return;  // the run solves the file's values as they are: its reference can wait for it
+      R.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
       break;
     case ReferencePoint::after_run:
-      R.ref = hpcgi::comm::agreed([&] { return converged_reference(P.sys, ""); });
+      R.ref = hpcgi::comm::agreed([&] { return converged_reference(L.sys, ""); });
       break;
   }
   R.have = true;
 }
 
-Checked verify_solve(const SolveArgs& a, const SolvePlan& p, const Problem& P, References&& R, const SolveResult& res) {
+Checked verify_solve(const SolvePlan& p, const Loaded& L, References&& R, const SolveResult& res) {
   Checked c;
-  c.made = a.verify && !failed(res.status);
+  c.made = p.verify && !failed(res.status);
   if (c.made) {
     // The reference is the run's converged solution when the run's matrix is the file's and no other file gave it.
-    const bool same = P.same_matrix && !R.from_file;
-    solve_reference_at(ReferencePoint::after_run, a, P, R);
-    if (R.ref.of.empty()) R.ref.of = a.ff + (same ? "" : " before threshold and rounding") + " (" + P.patches + ")";
-    c.v = hpcgi::comm::agreed([&] { return verify(P.sys, p.cfg, res, same ? &R.ref : nullptr); });
+    const bool same = L.same_matrix && !R.from_file;
+    solve_reference_at(ReferencePoint::after_run, p, L, R);
+    if (R.ref.of.empty()) R.ref.of = p.ff + (same ? "" : " before threshold and rounding") + " (" + L.patches + ")";
+    c.v = hpcgi::comm::agreed([&] { return verify(L.sys, p.cfg, res, same ? &R.ref : nullptr); });
     c.error = max_rel_diff(res.B, R.ref.B);
   }
   c.ref = std::move(R.ref);

@@ -37,8 +37,8 @@ struct References {
 };
 // Solves R.ref (agreed by the ranks) if `at` is where this run's reference is due: the one statement of where.
 // Nothing with --no-verify or once it is solved; before_rounding and after_run once read_form_factors has set
-// P.same_matrix.
-void solve_reference_at(ReferencePoint at, const SolveArgs& a, const Problem& P, References& R);
+// L.same_matrix.
+void solve_reference_at(ReferencePoint at, const SolvePlan& p, const Loaded& L, References& R);
 
 // What the verification made of a run (made: false with --no-verify or a failed run, which is not checked).
 struct Checked {
@@ -49,7 +49,7 @@ struct Checked {
   hpcgi::Outcome outcome;
 };
 // Checks the run (solving the reference where it is not yet) and says its outcome; the reference goes into Checked.
-Checked verify_solve(const SolveArgs& a, const SolvePlan& p, const Problem& P, References&& R, const SolveResult& res);
+Checked verify_solve(const SolvePlan& p, const Loaded& L, References&& R, const SolveResult& res);
 
 // The exit status of a solve (common/errors.hpp): 3 its numbers went wrong, 4 it stopped at --max-iter, 5 its
 // float64 check (v: null when not made) disagreed, else 0.

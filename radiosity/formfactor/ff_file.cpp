@@ -173,14 +173,17 @@ void count_header_read(const std::string& path) {
   }
 }
 
-// Reads and checks the header and the size of an open file; leaves the file positioned after the header.
-FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mesh& expected) {
+// Reads the header and the size of an open file and checks what the header says of itself (magic, version,
+// storage, precision); leaves the file positioned after the header.
+FormFactorFileHeader read_header(std::FILE* f, const std::string& path) {
   count_header_read(path);
   const std::string file = "form-factor file '" + path + "'";
   if (std::fseek(f, 0, SEEK_END) != 0) throw hpcgi::UsageError("cannot read " + file);
   const long size_or_error = std::ftell(f);
   if (size_or_error < 0) throw hpcgi::UsageError("cannot read " + file);
-  const uint64_t size = static_cast<uint64_t>(size_or_error);
+  FormFactorFileHeader out;
+  out.path = path;
+  out.size = static_cast<uint64_t>(size_or_error);
   std::rewind(f);
 
   Header h{};
@@ -189,7 +192,7 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
     throw hpcgi::UsageError("'" + path + "' is not a form-factor file (bad magic)");
   if (got < sizeof h)
     throw hpcgi::UsageError("truncated " + file + ": expected at least " + std::to_string(sizeof h) +
-                            " bytes of header, found " + std::to_string(size));
+                            " bytes of header, found " + std::to_string(out.size));
   if (h.version != kVersion && h.version != kSparseVersion)
     throw hpcgi::UsageError("unsupported " + file + " version " + std::to_string(h.version) +
                             " (this program reads versions " + std::to_string(kVersion) + " and " +
@@ -204,6 +207,29 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
                  (precision != "float32" && precision != "float16" && precision != "bfloat16")))
     throw hpcgi::UsageError("unsupported " + file + ": storage '" + storage + "', precision '" + precision +
                             "' (version 2 holds csr, compressed or runs, float32, float16 or bfloat16)");
+  std::memcpy(out.bytes.data(), &h, sizeof h);
+  out.info.n = h.n;
+  out.info.version = h.version;
+  out.info.storage = storage;
+  out.info.precision = precision;
+  out.info.payload_bytes = h.values_bytes;
+  return out;
+}
+
+}  // namespace
+
+FormFactorFileHeader open_form_factor_file(const std::string& path) {
+  hpcgi::files::require_input(path, "form-factor file");  // a FIFO would block, a folder is no file
+  File f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
+  return read_header(f.get(), path);
+}
+
+FormFactorFileInfo check_form_factor_header(const FormFactorFileHeader& header, const Mesh& expected) {
+  const std::string file = "form-factor file '" + header.path + "'";
+  Header h;
+  std::memcpy(&h, header.bytes.data(), sizeof h);
+  const bool sparse = h.version == kSparseVersion;
   const uint64_t hash = mesh_hash(expected);
   if (h.n != expected.size() || h.mesh_hash != hash)
     throw hpcgi::UsageError(file + " belongs to another mesh: the file has " + std::to_string(h.n) +
@@ -214,16 +240,10 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
     throw hpcgi::UsageError("corrupted " + file + ": " + std::to_string(h.values_bytes) + " bytes of values for " +
                             std::to_string(h.n) + " patches");
   const uint64_t want = sizeof h + h.values_bytes + sizeof(uint64_t);
-  if (size != want)
-    throw hpcgi::UsageError((size < want ? "truncated " : "oversized ") + file + ": expected " +
-                            std::to_string(want) + " bytes, found " + std::to_string(size));
-
-  FormFactorFileInfo info;
-  info.n = h.n;
-  info.version = h.version;
-  info.storage = storage;
-  info.precision = precision;
-  info.payload_bytes = h.values_bytes;
+  if (header.size != want)
+    throw hpcgi::UsageError((header.size < want ? "truncated " : "oversized ") + file + ": expected " +
+                            std::to_string(want) + " bytes, found " + std::to_string(header.size));
+  FormFactorFileInfo info = header.info;
   try {
     info.params.resolution = static_cast<int>(h.resolution);
     info.params.weights = parse_hemicube_weights(name_of(h.weights));
@@ -235,13 +255,16 @@ FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mes
   return info;
 }
 
+namespace {
+// Reads and checks the header and the size of an open file against the mesh; leaves the file positioned after the
+// header.
+FormFactorFileInfo check_header(std::FILE* f, const std::string& path, const Mesh& expected) {
+  return check_form_factor_header(read_header(f, path), expected);
+}
 }  // namespace
 
 FormFactorFileInfo check_any_form_factor_file(const std::string& path, const Mesh& expected) {
-  hpcgi::files::require_input(path, "form-factor file");  // a FIFO would block, a folder is no file
-  File f(std::fopen(path.c_str(), "rb"));
-  if (!f) throw hpcgi::UsageError("cannot open form-factor file '" + path + "': " + std::strerror(errno));
-  return check_header(f.get(), path, expected);
+  return check_form_factor_header(open_form_factor_file(path), expected);
 }
 
 namespace {

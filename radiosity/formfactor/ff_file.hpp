@@ -55,6 +55,20 @@ struct FormFactorFileInfo {
   uint64_t file_bytes() const { return checksum_offset() + 8; }
 };
 
+// A form-factor file opened and its header read once, checked for what it says of itself (magic, version, storage,
+// precision), not yet against a mesh: what a program reads before it has the mesh (bin/radiosity solve's plan).
+// info holds n, the version, storage, precision and payload bytes; its params once checked against the mesh.
+struct FormFactorFileHeader {
+  std::string path;
+  std::array<char, kFormFactorHeaderBytes> bytes{};
+  uint64_t size = 0;  // the file's bytes
+  FormFactorFileInfo info;
+};
+FormFactorFileHeader open_form_factor_file(const std::string& path);
+// The rest of the header's checks, against the mesh it must belong to (patch count and hash, then the size and the
+// hemicube): the file's info, as check_any_form_factor_file gives it. The header is not read again.
+FormFactorFileInfo check_form_factor_header(const FormFactorFileHeader& header, const Mesh& expected);
+
 // The header of the file for this mesh and these hemicube parameters: what save_form_factors writes first.
 std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, const HemicubeParams& params);
 

@@ -119,6 +119,9 @@ enum Facts : unsigned {
   kGpu = 32,             // runs on an NVIDIA GPU
   kRrvLoop = 64,         // RRV's loop as it was (backend original)
   kReadSweep = 128,      // sweeps its matrix's arrays (--read-sweeps: the host kernels)
+  kOneThread = 256,      // one thread, one block of rows
+  kFuses = 512,          // takes --fused
+  kSplitsRows = 1024,    // splits F's rows between a GPU and the host
 };
 SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, std::vector<Layout> layouts,
                  std::vector<Precision> precisions, Build build, const char* summary) {
@@ -131,6 +134,9 @@ SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, 
   b.gpu = (facts & kGpu) != 0;
   b.rrv_loop = (facts & kRrvLoop) != 0;
   b.read_sweep = (facts & kReadSweep) != 0;
+  b.one_thread = (facts & kOneThread) != 0;
+  b.fuses = (facts & kFuses) != 0;
+  b.splits_rows = (facts & kSplitsRows) != 0;
   return b;
 }
 }  // namespace
@@ -145,7 +151,7 @@ const std::vector<SolveBackend>& solve_backends() {
       row("original", kFixedStepsOnly | kRrvLoop, {Method::jacobi}, {Layout::aos}, {Precision::single},
           built_in(run_original),
           "RRV's loop rebuilt: per patch a vector of (pointer, form factor) pairs, element by element"),
-      row("serial", kTolerance | kAnyStorage | kOneChannel | kReadSweep, kAll, kAosSoa, kBoth,
+      row("serial", kTolerance | kAnyStorage | kOneChannel | kReadSweep | kOneThread, kAll, kAosSoa, kBoth,
           built_in(run_kernels<make_serial<float>, make_serial<double>>),
           "kernels written once for both layouts and every storage of F (dense, csr; 16-bit values), one thread"),
       row("openmp", kTolerance | kAnyStorage | kOneChannel | kReadSweep, kAll, kAosSoa, kBoth,
@@ -154,11 +160,11 @@ const std::vector<SolveBackend>& solve_backends() {
           "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)"),
       row("cuda", kTolerance | kSparseStorage | kGpu, kJacobiBicgstab, {Layout::aos}, kBoth, GPU_BACKEND(make_cuda),
           "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels"),
-      row("cublas", kTolerance | kSparseStorage | kGpu, kJacobiBicgstab, {Layout::soa}, kBoth,
+      row("cublas", kTolerance | kSparseStorage | kGpu | kFuses, kJacobiBicgstab, {Layout::soa}, kBoth,
           GPU_BACKEND(make_cublas),
           "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
           "csr float32 by cuSPARSE"),
-      row("hybrid", kTolerance | kGpu, {Method::jacobi}, {Layout::aos}, kBoth, GPU_BACKEND(make_hybrid),
+      row("hybrid", kTolerance | kGpu | kSplitsRows, {Method::jacobi}, {Layout::aos}, kBoth, GPU_BACKEND(make_hybrid),
           "the first ceil(d n) rows on the GPU (cuda's kernels), the rest on OpenMP threads, halves exchanged"),
       row("mpi", kTolerance | kAnyStorage | kOneChannel | kDistributed, kJacobiBicgstab, kAosSoa, kBoth, MPI_BACKEND,
           "MPI ranks, each its block of rows of F (read from the file alone), OpenMP inside; the vector gathered "

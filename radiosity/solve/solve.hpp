@@ -35,6 +35,9 @@ struct SolveBackend {
   bool gpu = false;             // runs on an NVIDIA GPU (--list-backends; the kit's GPU cases)
   bool rrv_loop = false;        // RRV's loop as it was: no history, no stopping rule; the one that takes ff_threshold
   bool read_sweep = false;      // sweeps its matrix's arrays after the method (--read-sweeps)
+  bool one_thread = false;      // one thread, one block of rows (gauss-seidel and sor sweep every row in order)
+  bool fuses = false;           // takes --fused: the three channels' products as one
+  bool splits_rows = false;     // splits F's rows between a GPU and the host (--distribution, --overlap)
 };
 const std::vector<SolveBackend>& solve_backends();
 
@@ -50,6 +53,8 @@ std::vector<Rgb> start_vector(const System& sys, Start start);
 
 // The backend of that name; throws hpcgi::UsageError for an unknown one or one this binary was built without.
 const SolveBackend& require_backend(const std::string& name);
+// The backend of that name, or null for an unknown one (built or not).
+const SolveBackend* find_backend(const std::string& name);
 
 // Throws hpcgi::UsageError for a configuration no backend runs as asked (a method, layout or precision the backend
 // does not run; bicgstab with steps; original without steps; omega outside (0, 2) or without sor; a tolerance not

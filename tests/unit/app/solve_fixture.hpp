@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "radiosity/app/commands.hpp"
 #include "radiosity/app/solve_run.hpp"
@@ -34,7 +35,7 @@ class SolvePhases : public ::testing::Test {
   // run_solve's order.
   struct Solved {
     radiosity::app::SolvePlan p;
-    radiosity::app::Problem L;
+    radiosity::app::Loaded L;
     radiosity::app::References R;
     radiosity::app::SolveRun run;
   };
@@ -42,12 +43,12 @@ class SolvePhases : public ::testing::Test {
     using namespace radiosity::app;
     auto s = std::make_unique<Solved>();
     s->p = plan_solve(args);
-    s->L = load_mesh(args, s->p);
-    solve_reference_at(ReferencePoint::before_form_factors, args, s->L, s->R);
-    read_form_factors(args, s->p, s->L);
-    solve_reference_at(ReferencePoint::before_rounding, args, s->L, s->R);
-    build_matrix(args, s->p, s->L);
-    s->run = run_solver(args, s->p, s->L);
+    Loaded mesh = load_mesh(s->p);
+    solve_reference_at(ReferencePoint::before_form_factors, s->p, mesh, s->R);
+    Loaded read = read_form_factors(s->p, std::move(mesh));
+    solve_reference_at(ReferencePoint::before_rounding, s->p, read, s->R);
+    s->L = build_matrix(s->p, std::move(read));
+    s->run = run_solver(s->p, s->L);
     return s;
   }
 

@@ -1,6 +1,7 @@
 // The load (solve_load.cpp): the mesh, the form factors in the one FormFactorMatrix, the run's matrix, the memory;
-// it returns a Problem, and the error reference is a phase of its own between its steps (solve_verify.hpp).
+// its steps return a Loaded, and the error reference is a phase of its own between its steps (solve_verify.hpp).
 #include <string>
+#include <utility>
 
 #include "common/errors.hpp"
 #include "radiosity/app/solve_load.hpp"
@@ -12,7 +13,7 @@ using namespace radiosity::app;
 using solve_phases::SolvePhases;
 
 TEST_F(SolvePhases, LoadsTheDenseFileAsItIs) {
-  const Problem L = load_solve(args, plan_solve(args));
+  const Loaded L = load_solve(plan_solve(args));
   EXPECT_EQ(L.n, 4u);
   EXPECT_EQ(L.patches, "4 patches");
   EXPECT_FALSE(L.sparse_file);
@@ -31,18 +32,18 @@ TEST_F(SolvePhases, RoundedValuesTakeTheirReferenceBeforeRounding) {
   args.storage = "dense";
   args.ff_precision = "float16";
   const SolvePlan p = plan_solve(args);
-  Problem L = load_mesh(args, p);
+  Loaded L = load_mesh(p);
   References R;
-  solve_reference_at(ReferencePoint::before_form_factors, args, L, R);
+  solve_reference_at(ReferencePoint::before_form_factors, p, L, R);
   EXPECT_FALSE(R.have);  // no --reference-ff
-  read_form_factors(args, p, L);
+  L = read_form_factors(p, std::move(L));
   EXPECT_FALSE(L.same_matrix);
   EXPECT_NE(dense_float32(L.sys), nullptr);  // the file's values, not yet rounded
-  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
+  solve_reference_at(ReferencePoint::before_rounding, p, L, R);
   ASSERT_TRUE(R.have);
   EXPECT_TRUE(R.ref.converged);
   EXPECT_EQ(R.ref.B.size(), 4u);
-  build_matrix(args, p, L);
+  L = build_matrix(p, std::move(L));
   EXPECT_EQ(L.storage, FFStorage::dense);
   ASSERT_NE(L.matrix, nullptr);
   EXPECT_EQ(dense_float32(L.sys), nullptr);  // the run's matrix replaced the file's dense values
@@ -52,12 +53,11 @@ TEST_F(SolvePhases, RoundedValuesTakeTheirReferenceBeforeRounding) {
 
 TEST_F(SolvePhases, TheFileMatrixTakesItsReferenceAfterTheRun) {
   const SolvePlan p = plan_solve(args);
-  Problem L = load_mesh(args, p);
+  const Loaded L = read_form_factors(p, load_mesh(p));
   References R;
-  read_form_factors(args, p, L);
-  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
+  solve_reference_at(ReferencePoint::before_rounding, p, L, R);
   EXPECT_FALSE(R.have);  // same_matrix: it waits for the run
-  solve_reference_at(ReferencePoint::after_run, args, L, R);
+  solve_reference_at(ReferencePoint::after_run, p, L, R);
   EXPECT_TRUE(R.have);
 }
 
@@ -66,11 +66,10 @@ TEST_F(SolvePhases, NoReferenceWithoutVerify) {
   args.ff_precision = "float16";
   args.verify = false;
   const SolvePlan p = plan_solve(args);
-  Problem L = load_mesh(args, p);
+  Loaded L = read_form_factors(p, load_mesh(p));
   References R;
-  read_form_factors(args, p, L);
-  solve_reference_at(ReferencePoint::before_rounding, args, L, R);
-  build_matrix(args, p, L);
+  solve_reference_at(ReferencePoint::before_rounding, p, L, R);
+  L = build_matrix(p, std::move(L));
   EXPECT_EQ(L.storage, FFStorage::csr);
   EXPECT_FALSE(R.have);
 }
@@ -78,7 +77,6 @@ TEST_F(SolvePhases, NoReferenceWithoutVerify) {
 TEST_F(SolvePhases, MemoryLimitRefusesBeforeLoading) {
   args.max_memory_per_rank = "1K";
   const SolvePlan p = plan_solve(args);
-  Problem L = load_mesh(args, p);
-  EXPECT_THROW(read_form_factors(args, p, L), hpcgi::UsageError);
-  EXPECT_EQ(L.matrix, nullptr);  // nothing read
+  Loaded L = load_mesh(p);
+  EXPECT_THROW(read_form_factors(p, std::move(L)), hpcgi::UsageError);
 }

@@ -76,24 +76,26 @@ TEST_F(SolvePhases, PlanRefusesABackendThisBuildLacks) {
 }
 
 TEST_F(SolvePhases, PlanOfASparseFile) {
-  const SolvePlan p = plan_solve(args);
   FormFactorFileInfo info;
   info.version = 2;
   info.storage = "csr";
   info.precision = "float32";
-  EXPECT_NO_THROW(plan_sparse_file(args, *p.backend, info));
+  EXPECT_NO_THROW(plan_sparse_file(plan_solve(args), info));
   args.storage = "compressed";
-  EXPECT_THROW(plan_sparse_file(args, *p.backend, info), hpcgi::UsageError);
+  EXPECT_THROW(plan_sparse_file(plan_solve(args), info), hpcgi::UsageError);
   args.storage = "auto";
   args.ff_precision = "float16";
-  EXPECT_THROW(plan_sparse_file(args, *p.backend, info), hpcgi::UsageError);
+  EXPECT_THROW(plan_sparse_file(plan_solve(args), info), hpcgi::UsageError);
   args.ff_precision = "float32";
   args.threshold = 0.01;
-  EXPECT_THROW(plan_sparse_file(args, *p.backend, info), hpcgi::UsageError);
+  EXPECT_THROW(plan_sparse_file(plan_solve(args), info), hpcgi::UsageError);
 }
 
 TEST_F(SolvePhases, SnapshotFileNames) {
-  EXPECT_EQ(snapshot_file(args, 4), "snapshot_iter4.png");
-  args.snapshot_prefix = "out/room";
-  EXPECT_EQ(snapshot_file(args, 32), "out/room_iter32.png");
+  EXPECT_EQ(snapshot_file("", 4), "snapshot_iter4.png");
+  EXPECT_EQ(snapshot_file("out/room", 32), "out/room_iter32.png");
+  args.snapshots = {1, 2};
+  const SolvePlan p = plan_solve(args);
+  ASSERT_EQ(p.snapshots.size(), 2u);
+  EXPECT_EQ(p.snapshots[1], (std::pair<long, std::string>{2, "snapshot_iter2.png"}));
 }

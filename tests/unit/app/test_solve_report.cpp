@@ -15,8 +15,8 @@ class SolveRecord : public SolvePhases {
  protected:
   nlohmann::json record() {
     const auto s = solved();
-    const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
-    return solve_record(SolveReport{args, s->p, s->L, s->run, c, 1.5});
+    const Checked c = verify_solve(s->p, s->L, std::move(s->R), s->run.res);
+    return solve_record(SolveReport{s->p, s->L, s->run, c, 1.5});
   }
 };
 

@@ -13,7 +13,7 @@ using solve_phases::SolvePhases;
 TEST_F(SolvePhases, ConvergedRunAgreesWithItsReference) {
   args.cfg.tol = 1e-8;
   const auto s = solved();
-  const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
+  const Checked c = verify_solve(s->p, s->L, std::move(s->R), s->run.res);
   ASSERT_TRUE(c.made);
   EXPECT_TRUE(c.v.agreed);
   EXPECT_LE(c.v.max_rel_diff, c.v.bound);
@@ -28,7 +28,7 @@ TEST_F(SolvePhases, NoVerifyMakesNoCheck) {
   args.verify = false;
   const auto s = solved();
   EXPECT_FALSE(s->R.have);
-  const Checked c = verify_solve(args, s->p, s->L, std::move(s->R), s->run.res);
+  const Checked c = verify_solve(s->p, s->L, std::move(s->R), s->run.res);
   EXPECT_FALSE(c.made);
   EXPECT_EQ(c.ref.B.size(), 0u);
   EXPECT_EQ(c.outcome.status, hpcgi::kExitOk);
