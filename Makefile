@@ -38,15 +38,18 @@ LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
 # one-process version of its collectives, and the files that only exist for MPI are left out.
 MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp \
-               radiosity/dist/ff_mpi.cpp
-MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp radiosity/dist/ff_mpi.cpp
+               radiosity/formfactor/file/mpi_rows.cpp
+MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp radiosity/formfactor/file/mpi_rows.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
 MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp
 MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp poisson/config.cpp poisson/verify.cpp poisson/list_backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
                   $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
-MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp)
+MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp) radiosity/formfactor/file/format.cpp
+# The form-factor file's reader (radiosity/formfactor/file/file.hpp): sparse files and MPI ranks' rows, over the
+# solve's storage.
+MOD_ffile      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)) radiosity/formfactor/file/format.cpp,$(wildcard radiosity/formfactor/file/*.cpp))
 MOD_solve      := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/solve/*.cpp radiosity/solve/*/*.cpp)) \
                   $(if $(HAVE_CUDA),$(wildcard radiosity/solve/gpu/*.cu))
 MOD_dist       := $(filter-out $(if $(HAVE_MPI),,$(MPI_ONLY)),$(wildcard radiosity/dist/*.cpp))
@@ -56,13 +59,13 @@ MOD_relight    := $(wildcard radiosity/relight/*.cpp)
 SUITE_poisson    := common poisson
 SUITE_scene      := common scene
 SUITE_formfactor := common formfactor
-SUITE_solve      := common formfactor solve
+SUITE_solve      := common formfactor solve ffile
 SUITE_common     := common
 SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
 SUITE_relight    := common scene formfactor solve relight
-SUITE_app        := common scene formfactor solve render app dist relight
+SUITE_app        := common scene formfactor solve ffile render app dist relight
 SUITES := $(notdir $(patsubst %/,%,$(wildcard tests/unit/*/)))
 
 obj = $(patsubst %,$(BUILD)/%.o,$(1))
@@ -165,7 +168,7 @@ $(BIN)/stream: $(call obj,bench/stream.cpp) $(call mods,common) $(if $(HAVE_CUDA
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
-$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve render app dist relight)
+$(BIN)/radiosity: $(call obj,radiosity/main.cpp) $(call mods,common scene formfactor solve ffile render app dist relight)
 	@mkdir -p $(@D)
 	$(LINK) $(CXXFLAGS) $^ -o $@ $(LDLIBS)
 
@@ -185,7 +188,7 @@ FUZZ_BUILD   ?= build-fuzz
 FUZZ_TARGETS := scene scene_nested ff_file
 FUZZ_SRC_scene   := tests/fuzz/fuzz_scene.cpp $(MOD_scene) common/files.cpp
 FUZZ_SRC_scene_nested := tests/fuzz/fuzz_scene_nested.cpp $(MOD_scene) common/files.cpp
-FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/ff_file.cpp radiosity/formfactor/form_factors.cpp common/files.cpp
+FUZZ_SRC_ff_file := tests/fuzz/fuzz_ff_file.cpp radiosity/formfactor/file/format.cpp radiosity/formfactor/form_factors.cpp common/files.cpp
 FUZZ_HEADERS := $(wildcard common/*.hpp radiosity/*.hpp radiosity/scene/*.hpp radiosity/formfactor/*.hpp tests/fuzz/*.hpp)
 $(FUZZ_BUILD)/fuzz_%: $$(FUZZ_SRC_$$*) $(FUZZ_HEADERS)
 	@mkdir -p $(@D)

@@ -1,4 +1,4 @@
-"""The form-factor file of radiosity/formfactor/ff_file.hpp in Python, the one reader and writer of it outside the
+"""The form-factor file of radiosity/formfactor/file/format.hpp in Python, the one reader and writer of it outside the
 C++ code: the peers of `make bench` (bench/peers.py) read the form factors with it, and the tests and the fuzz seeds
 (tests/fuzz/make_ff_seeds) write files with it. It follows the documented layout, not the C++ code, so that tests
 can make files the program never would (row sums above 1, NaN, broken headers) and a file the C++ reader accepts

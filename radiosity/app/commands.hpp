@@ -9,6 +9,7 @@
 #include "common/files.hpp"
 #include "common/record.hpp"
 
+#include "radiosity/formfactor/file/file.hpp"
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
 #include "radiosity/solve/solve.hpp"
@@ -28,6 +29,10 @@ void add_scene_options(CLI::App* cmd, SceneArgs& a);
 void add_memory_option(CLI::App* cmd, SceneArgs& a);
 // Loads and subdivides the scene (sets the thread count first); prints nothing.
 Mesh load_scene(const SceneArgs& a, double* seconds);
+// The form factors of a form-factor file for mesh m, as `how` asks (radiosity/formfactor/file/file.hpp: every row,
+// or an MPI rank's block; a sparse file as stored), the file checked against m first (its header is not read
+// again): the one call of the application into the file's reader (solve's load and error reference, relight, web).
+FormFactorMatrix read_form_factors(const FormFactorFile& file, const Mesh& m, const FormFactorRead& how = {});
 // An MPI run gives each rank a block of rows: more ranks than patches are refused (every rank alike, one line).
 void require_rows_for_ranks(size_t patches, int ranks);
 // Before anything is computed: the scene and `inputs` are files, `outputs` and --record can be written without

@@ -7,11 +7,11 @@
 #include "common/timer.hpp"
 #include "radiosity/app/formfactors_phases.hpp"
 #include "radiosity/dist/split.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
-#include "radiosity/solve/storage/ff_matrix_file.hpp"
+#include "radiosity/formfactor/file/sparse.hpp"
 #ifdef HAVE_MPI
-#include "radiosity/dist/ff_mpi.hpp"
+#include "radiosity/formfactor/file/mpi_rows.hpp"
 #endif
 
 namespace radiosity::app {

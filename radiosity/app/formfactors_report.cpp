@@ -4,7 +4,7 @@
 #include "common/comm.hpp"
 #include "common/record.hpp"
 #include "radiosity/app/formfactors_phases.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 
 namespace radiosity::app {

@@ -18,7 +18,7 @@
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
 #include "radiosity/app/relight_phases.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"
 #include "radiosity/render/camera.hpp"
@@ -148,8 +148,8 @@ int run_relight(const RelightArgs& a) {
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "relight"},       {"scene", a.scene},
                    {"patches", in.m.size()},     {"divide", a.load.divide},
-                   {"ff_file", a.ff},            {"hemicube", in.ff.params.resolution},
-                   {"weights", to_string(in.ff.params.weights)},
+                   {"ff_file", a.ff},            {"hemicube", in.ff_params.resolution},
+                   {"weights", to_string(in.ff_params.weights)},
                    {"ff_precision", a.ff_precision},
                    {"storage", to_string(in.storage)},
                    {"storage_requested", a.storage}};

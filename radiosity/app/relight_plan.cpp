@@ -5,7 +5,7 @@
 #include "common/memory.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/relight_phases.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/solve/multi_solve.hpp"
 #include "radiosity/solve/storage_choice.hpp"
 
@@ -64,7 +64,7 @@ namespace {
 void build_relight_matrices(const RelightArgs& a, const RelightPlan& p, RelightInputs& in) {
   hpcgi::Timer t;
   const size_t n = in.m.size();
-  const float* F = in.ff.values.data();
+  const float* F = in.file_matrix->dense_float32_values();
   const std::vector<Rgb> rho = reflective_somewhere(in.m, in.named, in.frames);
   if (p.storage) {
     in.storage = *p.storage;
@@ -126,7 +126,9 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
                              4 * n2 + (p.values != FFValues::float32 || p.storage != FFStorage::dense ? 4 * n2 : 0) +
                                  (blocks ? 4 * n2 : 0));
   hpcgi::Timer t;
-  in.ff = load_form_factors(a.ff, in.m);
+  const FormFactorFile file = FormFactorFile::open(a.ff).checked(in.m).require_dense();
+  in.file_matrix = std::make_unique<FormFactorMatrix>(read_form_factors(file, in.m));
+  in.ff_params = file.info().params;
   in.ff_load_s = t.seconds();
   build_relight_matrices(a, p, in);
 }

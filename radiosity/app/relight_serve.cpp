@@ -160,7 +160,7 @@ ServedFrames serve_frames(const RelightArgs& a, const RelightPlan& p, const Reli
     fr["ms"] = ms;
     s.all_ms.push_back(ms);
     if (check) {
-      const double err = max_rel_diff(B, converged_reference(make_system(fm, in.ff.values.data()), "").B);
+      const double err = max_rel_diff(B, converged_reference(make_system(fm, in.file_matrix->dense_float32_values()), "").B);
       fr["error"] = err;
       s.worst_error = std::isnan(err) ? err : std::max(s.worst_error, err);
       ++s.checked;

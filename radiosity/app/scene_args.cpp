@@ -69,6 +69,10 @@ Mesh load_scene(const SceneArgs& a, double* seconds) {
   return m;
 }
 
+FormFactorMatrix read_form_factors(const FormFactorFile& file, const Mesh& m, const FormFactorRead& how) {
+  return file.checked(m).read(how);
+}
+
 void add_info(CLI::App& app, InfoArgs& a) {
   CLI::App* cmd = app.add_subcommand("info", "load a scene and print its patches, lights and the memory a run needs");
   add_scene_options(cmd, a);

@@ -7,11 +7,7 @@
 #include "common/errors.hpp"
 #include "common/memory.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/storage/ff_matrix_file.hpp"
 #include "radiosity/solve/storage_choice.hpp"
-#ifdef HAVE_MPI
-#include "radiosity/dist/ff_mpi.hpp"
-#endif
 
 namespace radiosity::app {
 namespace {
@@ -28,14 +24,13 @@ void mesh_of(const SolvePlan& p, Loaded& L) {
 }
 
 // The plan's header of --ff checked against the mesh (not read again). A sparse file (version 2) is read as it is
-// stored, never dense (ff_matrix_file.hpp). What is no file at all is taken for a dense one here (the memory check
+// stored, never dense (radiosity/formfactor/file/sparse.hpp). What is no file at all is taken for a dense one here (the memory check
 // refuses it from the patch count, the load by what it is).
 void read_file_info(const SolvePlan& p, Loaded& L) {
-  L.file_info = hpcgi::comm::agreed([&] {
-    if (!p.file) return FormFactorFileInfo{};
-    L.file_checked = true;
-    return check_form_factor_header(*p.file, L.m);
+  hpcgi::comm::agreed([&] {
+    if (p.file) L.file = p.file->checked(L.m);
   });
+  if (L.file) L.file_info = L.file->info();
   L.sparse_file = L.file_info.version != 1;
 }
 
@@ -85,37 +80,32 @@ void check_memory(const SolvePlan& p, Loaded& L) {
   });
 }
 
-// A dense file's values (every row, or an MPI rank's block) as the one FormFactorMatrix: dense float32, the values
-// moved, not copied.
-std::unique_ptr<FormFactorMatrix> dense_matrix(FormFactors&& ff) {
-  FormFactorMatrix::Parts parts;
-  parts.n = ff.n;
-  parts.row_begin = ff.first_row();
-  parts.row_end = ff.last_row();
-  parts.f32 = std::move(ff.values);
-  return std::make_unique<FormFactorMatrix>(std::move(parts));
+// The file's values as stored, in the one matrix: a sparse file's, an MPI rank's block of rows (its read's times
+// added to the rank's), or every row. The header read once (by the plan) is not read again.
+void read_rows(const SolvePlan& p, Loaded& L, const dist::RowBlock& block) {
+  FormFactorRead how;
+  dist::FileStats st;
+  if (p.dist) {
+    how.rank_rows = true;
+    how.rows = block;
+    how.stats = &st;
+  }
+  L.matrix = std::make_unique<FormFactorMatrix>(read_form_factors(*L.file, L.m, how));
+  L.rank_read_s += st.io_s;
+  L.rank_checksum_s += st.checksum_s;
+  L.rank_chain_s += st.chain_s;
 }
 
-// The file's values as stored, in the one matrix: a sparse file's, an MPI rank's block of rows, or every row. The
-// header read once (read_file_info) is not read again.
+// The load's first read of the file's values; the memory check (check_memory) has passed.
 void read_values(const SolvePlan& p, Loaded& L) {
   hpcgi::Timer t;
-  if (!L.file_checked)  // no file: refused here by what it is, as every reader refuses it
-    hpcgi::comm::agreed([&] { check_any_form_factor_file(p.ff, L.m); });
+  if (!L.file)  // no file: refused here by what it is, as every reader refuses it
+    hpcgi::comm::agreed([&] {
+      FormFactorFile::open(p.ff);
+      throw hpcgi::UsageError("--ff '" + p.ff + "': not a form-factor file");
+    });
   L.params = L.file_info.params;
-  if (L.sparse_file) {
-    L.matrix = std::make_unique<FormFactorMatrix>(load_form_factor_matrix(p.ff, L.file_info));
-  } else if (p.dist) {
-#ifdef HAVE_MPI
-    dist::FileStats st;
-    L.matrix = dense_matrix(dist::load_form_factor_rows(p.ff, L.file_info, L.block, &st));
-    L.rank_read_s = st.io_s;
-    L.rank_checksum_s = st.checksum_s;
-    L.rank_chain_s = st.chain_s;
-#endif
-  } else {
-    L.matrix = dense_matrix(load_form_factors(p.ff, L.file_info));
-  }
+  read_rows(p, L, L.block);
   L.ff_load_s = t.seconds();
   static const float kNoRows = 0;  // a rank without rows still has a matrix (of none of them)
   FFMatrixView view = L.matrix->view();
@@ -236,12 +226,8 @@ void balance_rows_by_cost(const SolvePlan& p, Loaded& L, const FFMatrixOptions& 
   const dist::RowBlock block = dist::block_of(dist::split_by_work(work, p.ranks), p.rank);
   if (block.begin != L.block.begin || block.end != L.block.end) {
     L.matrix.reset();  // the rows read before: counted, no longer needed
-    dist::FileStats st;
-    L.matrix = dense_matrix(dist::load_form_factor_rows(p.ff, L.file_info, block, &st));
+    read_rows(p, L, block);
     L.sys.matrix = L.matrix->view();
-    L.rank_read_s += st.io_s;
-    L.rank_checksum_s += st.checksum_s;
-    L.rank_chain_s += st.chain_s;
     L.block = block;
   }
 }

@@ -6,6 +6,7 @@
 // values are thresholded or rounded). The load never calls it.
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,9 +24,9 @@ struct Loaded {
   double n2 = 0;          // n², the dense matrix's entries
   std::string patches;    // "N patches"
   double load_s = 0, ff_load_s = 0, ff_build_s = 0;
-  FormFactorFileInfo file_info;  // version 1: dense (or not yet a file), else sparse
+  std::optional<FormFactorFile> file;  // the plan's --ff, checked against the mesh (none: no regular file)
+  FormFactorFileInfo file_info;        // its info; version 1: dense (or not a file), else sparse
   bool sparse_file = false;
-  bool file_checked = false;     // file_info is the --ff file's header, read once and checked
   dist::RowBlock block;              // this process's rows
   std::vector<RankNeed> rank_needs;  // what each rank holds (the record's mpi section)
   double file_bytes = 0;             // the file's values this process holds

@@ -67,8 +67,8 @@ SolvePlan plan_solve(const SolveArgs& a) {
     check_config(p.cfg);  // the library's rules (solve.hpp): what the backend runs, the tolerance, omega, ...
     std::error_code ec;
     if (std::filesystem::is_regular_file(p.ff, ec)) {
-      p.file = open_form_factor_file(p.ff);
-      if (p.file->info.version != 1) plan_sparse_file(p, p.file->info);
+      p.file = FormFactorFile::open(p.ff);
+      if (p.file->sparse()) plan_sparse_file(p, p.file->info());
     }
   });
   p.dist = p.backend->distributed;

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "radiosity/app/commands.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/file.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 
@@ -32,7 +32,7 @@ struct SolvePlan {
   std::string ff;                       // --ff
   // --ff opened, its header read once and checked for what it says of itself, and a sparse file's rules
   // (plan_sparse_file) applied; none where --ff is no regular file (the load refuses it by what it is).
-  std::optional<FormFactorFileHeader> file;
+  std::optional<FormFactorFile> file;
   FFValues values = FFValues::float32;  // --ff-precision
   std::optional<FFStorage> storage;     // --storage; none: auto (chosen when the kept values are counted)
   double threshold = 0;                 // --threshold: |F_ij| <= it dropped at load

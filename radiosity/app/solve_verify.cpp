@@ -6,7 +6,7 @@
 #include "common/comm.hpp"
 #include "common/memory.hpp"
 #include "common/timer.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/file.hpp"
 #include "radiosity/solve/mesh_map.hpp"
 
 namespace radiosity::app {
@@ -58,10 +58,11 @@ ErrorReference reference_from_file(const SolvePlan& p, const Mesh& m) {
   hpcgi::require_host_memory("the error reference on " + std::to_string(rm.size()) + " patches (its dense float32 "
                              "form factors " + gib(4 * rn * rn) + ", vectors " + gib(vector_bytes(rm.size())) + ")",
                              4 * rn * rn + vector_bytes(rm.size()));
-  const FormFactors rff = load_form_factors(p.reference_ff, rm);
-  ErrorReference ref = converged_reference(make_system(rm, rff.values.data()), "");
+  const FormFactorFile rfile = FormFactorFile::open(p.reference_ff).checked(rm).require_dense();
+  const FormFactorMatrix rff = read_form_factors(rfile, rm);
+  ErrorReference ref = converged_reference(make_system(rm, rff.view()), "");
   char what[96];
-  std::snprintf(what, sizeof what, " (hemicube R=%d, %zu patches, divide %g)", rff.params.resolution, rm.size(),
+  std::snprintf(what, sizeof what, " (hemicube R=%d, %zu patches, divide %g)", rfile.info().params.resolution, rm.size(),
                 rm.size() == m.size() ? p.scene.load.divide : p.reference_divide);
   ref.of = p.reference_ff + what;
   if (p.reference_divide > 0 && mesh_hash(fine) != mesh_hash(m)) ref.B = area_weighted_onto(m, fine, ref.B);

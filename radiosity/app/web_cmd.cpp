@@ -15,7 +15,6 @@
 #include "common/sha256.hpp"
 #include "common/timer.hpp"
 #include "radiosity/app/commands.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/render/camera.hpp"
 #include "radiosity/render/render.hpp"
@@ -129,11 +128,11 @@ int run_web(const WebArgs& a) {
   LightBasis basis;
   bool loaded = false;
   {
-    const FormFactors ff = load_form_factors(a.ff, m);
+    const FormFactorMatrix ff = read_form_factors(FormFactorFile::open(a.ff).checked(m).require_dense(), m);
     BasisOptions opt;
     opt.tol = a.basis_tol;
     opt.threads = a.threads;
-    basis = load_or_solve_basis(a.basis, m, a.ff, dense_float32_view(ff.values.data(), n), lights, opt, &loaded);
+    basis = load_or_solve_basis(a.basis, m, a.ff, dense_float32_view(ff.dense_float32_values(), n), lights, opt, &loaded);
   }
   std::vector<float> positions;
   positions.reserve(9 * n);

@@ -8,7 +8,7 @@
 #include "common/comm.hpp"
 #include "common/files.hpp"
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 
 namespace radiosity::relight {
 namespace {

@@ -6,7 +6,7 @@
 //   16 uint64   patch count n          64 uint64   Jacobi steps of the solve
 //   24 uint64   mesh_hash(mesh)        72 then k names, each a uint32 length and its bytes
 //   32 uint64   the form-factor file's checksum (its last 8 bytes: F's values as that file holds them)
-// then k × n × 3 float64 (light after light, patch-major r, g, b), then a uint64 checksum (ff_file.hpp's Fnv64) of
+// then k × n × 3 float64 (light after light, patch-major r, g, b), then a uint64 checksum (radiosity/formfactor/file/format.hpp's Fnv64) of
 // every byte before it. Written to FILE.tmp and renamed, so FILE is never half-written.
 #pragma once
 #include <cstdint>

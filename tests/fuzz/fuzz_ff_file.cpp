@@ -10,7 +10,7 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "tests/fuzz/fuzz_setup.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -1,7 +1,7 @@
 """The --ff file's header is parsed once per process (issue 36, item 2): the load reads and checks it once and hands
 what it says to every reader of the values (dense, a sparse file, an MPI rank's rows, read again when the rows are
 balanced by cost). A test-only hook counts the parses: HPCGI_TEST_FF_HEADER_LOG names a file to which every parse of
-a form-factor header appends "PID PATH" (radiosity/formfactor/ff_file.hpp, kHeaderReadLogEnv)."""
+a form-factor header appends "PID PATH" (radiosity/formfactor/file/format.hpp, kHeaderReadLogEnv)."""
 import collections
 import shutil
 

@@ -49,7 +49,7 @@ FFValues parse_ff_values(const std::string& s);
 size_t value_bytes(FFValues v);
 
 // One run of a runs matrix: columns [end + step, end + step + length), end the column after the previous run's
-// last (0 at the row's start). Part of the form-factor file (ff_matrix_file.hpp).
+// last (0 at the row's start). Part of the form-factor file (radiosity/formfactor/file/sparse.hpp).
 struct FFRun {
   uint16_t step;
   uint16_t length;
@@ -186,7 +186,7 @@ size_t apply_threshold(float* F, size_t n, double threshold, size_t rows = SIZE_
 
 class FormFactorMatrix {
  public:
-  // Its parts as a form-factor file of version 2 holds them (ff_matrix_file.hpp: the reader checks them).
+  // Its parts as a form-factor file of version 2 holds them (radiosity/formfactor/file/sparse.hpp: the reader checks them).
   struct Parts {
     size_t n = 0, kept = 0, bridges = 0;
     FFMatrixOptions opt;
@@ -219,6 +219,7 @@ class FormFactorMatrix {
   float* dense_float32_values() {
     return opt_.storage == FFStorage::dense && opt_.values == FFValues::float32 ? f32_.data() : nullptr;
   }
+  const float* dense_float32_values() const { return const_cast<FormFactorMatrix*>(this)->dense_float32_values(); }
   size_t kept() const { return kept_; }  // values kept (sparse: bridges, merged zeros not counted) or non-zero (dense)
   size_t bridges() const { return bridges_; }  // compressed's bridges, runs' runs of length 0
   RunCounts runs() const;                      // runs: its runs and stored values; otherwise 0

@@ -11,7 +11,7 @@
 #include "radiosity/app/commands.hpp"
 #include "radiosity/app/solve_run.hpp"
 #include "radiosity/app/solve_verify.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
 #include "tests/unit/scene/scene_test_util.hpp"

@@ -7,7 +7,7 @@
 
 #include "common/errors.hpp"
 #include "radiosity/app/formfactors_phases.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/scene/analytic.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"

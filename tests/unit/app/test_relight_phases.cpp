@@ -8,7 +8,7 @@
 
 #include "common/errors.hpp"
 #include "radiosity/app/relight_phases.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/hemicube.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/scene/rrv_reader.hpp"

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/scene/analytic.hpp"
 
 using namespace radiosity;

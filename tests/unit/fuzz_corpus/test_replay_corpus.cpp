@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/scene/rrv_reader.hpp"
 #include "tests/fuzz/fuzz_setup.hpp"
 
@@ -98,7 +98,7 @@ TEST(ReplayCorpus, FormFactorSeeds) {
   for (const fs::path& f : seeds) expect_seed(f, outcome(f, [&] { radiosity::load_form_factors(f.string(), mesh); }));
 }
 
-// The seed writer follows the layout documented in ff_file.hpp, not the C++ code: a file it calls valid must read
+// The seed writer follows the layout documented in radiosity/formfactor/file/format.hpp, not the C++ code: a file it calls valid must read
 // back to the values it wrote, which checks the documentation as well.
 TEST(ReplayCorpus, FormFactorSeedReadsBackItsValues) {
   const radiosity::FormFactors ff = radiosity::load_form_factors("tests/fuzz/seeds/ff_file/valid_exact", fuzz::ff_mesh());

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/relight/basis.hpp"
 #include "radiosity/relight/basis_file.hpp"
 #include "radiosity/relight/frames.hpp"

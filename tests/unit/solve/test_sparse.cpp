@@ -13,11 +13,11 @@
 #include <string>
 
 #include "common/errors.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/scene/analytic.hpp"
 #include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
-#include "radiosity/solve/storage/ff_matrix_file.hpp"
+#include "radiosity/formfactor/file/sparse.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "radiosity/solve/storage_choice.hpp"
 #include "configs.hpp"

@@ -1,4 +1,4 @@
-// Sparse form factors in the form-factor file (version 2, ff_file.hpp): `formfactors --storage csr|compressed|runs` writes
+// Sparse form factors in the form-factor file (version 2, format.hpp): `formfactors --storage csr|compressed|runs` writes
 // the matrix as FormFactorMatrix holds it, and `solve` reads it without ever holding F dense. The payload after the
 // 72-byte header, little-endian:
 //   uint64 entries, uint64 kept, uint64 bridges, float64 scale (F_ij = scale · stored value; float16: 2^-k)
@@ -12,7 +12,7 @@
 #pragma once
 #include <string>
 
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"

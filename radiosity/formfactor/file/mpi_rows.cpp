@@ -1,4 +1,4 @@
-#include "radiosity/dist/ff_mpi.hpp"
+#include "radiosity/formfactor/file/mpi_rows.hpp"
 
 #include "common/files.hpp"
 
@@ -14,7 +14,7 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 
 namespace radiosity::dist {
 namespace {

@@ -1,4 +1,4 @@
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "common/files.hpp"
 
 #include <unistd.h>
@@ -23,7 +23,7 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the form-factor file i
 
 constexpr char kMagic[8] = {'H', 'P', 'C', 'G', 'I', 'F', 'F', '\0'};
 constexpr uint32_t kVersion = 1;        // dense float32
-constexpr uint32_t kSparseVersion = 2;  // csr, compressed or runs (ff_file.hpp)
+constexpr uint32_t kSparseVersion = 2;  // csr, compressed or runs (format.hpp)
 
 // A header name field holds 7 characters: version 2 writes "compressed" as "csrd16" and "bfloat16" as "bf16".
 struct Code {
@@ -163,7 +163,7 @@ void save_form_factors(const std::string& path, const Mesh& mesh, const FormFact
 
 namespace {
 
-// The test-only hook that counts header reads (ff_file.hpp): one line "pid path" appended to the file it names.
+// The test-only hook that counts header reads (format.hpp): one line "pid path" appended to the file it names.
 void count_header_read(const std::string& path) {
   const char* log = std::getenv(kHeaderReadLogEnv);
   if (!log || !*log) return;
@@ -267,14 +267,12 @@ FormFactorFileInfo check_any_form_factor_file(const std::string& path, const Mes
   return check_form_factor_header(open_form_factor_file(path), expected);
 }
 
-namespace {
 void refuse_sparse(const FormFactorFileInfo& info, const std::string& path) {
   if (info.version != kVersion)
     throw hpcgi::UsageError("form-factor file '" + hpcgi::one_line(path) + "' holds " + info.storage + " " +
                             info.precision + " form factors (version 2); this reads dense float32 (version 1): write "
                             "the file with formfactors --storage dense");
 }
-}  // namespace
 
 FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected) {
   const FormFactorFileInfo info = check_any_form_factor_file(path, expected);

@@ -1,5 +1,5 @@
 // The form-factor file written and read by MPI ranks, each only its own block of rows, with MPI-IO: the one file
-// of ff_file.hpp, format unchanged (version 1). Rank 0 writes the header, every rank its rows at their offset
+// of format.hpp, format unchanged (version 1). Rank 0 writes the header, every rank its rows at their offset
 // (72 + 4·n·first row), and the checksum (FNV-1a over 64-bit words, a sequential hash) is computed as a chain:
 // rank r receives the running hash from rank r - 1, with the bytes of a word its rows left unfinished (4n-byte rows
 // end inside a word when n is odd), hashes its own bytes and hands on; the last rank writes or checks the result.
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "radiosity/dist/split.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/formfactor/form_factors.hpp"
 #include "radiosity/mesh.hpp"
 

@@ -1,5 +1,7 @@
 // The form-factor file: F computed once (the expensive part) and reused for any lighting or reflectivity of the same
 // geometry (report §3.6). A file names the mesh it belongs to, so a stale or foreign file is refused, never used.
+// Programs read it through file.hpp (FormFactorFile: open, checked, read), the one way in; this file holds the format,
+// its checks and the dense reader and writer.
 //
 // Layout, little-endian, 72-byte header:
 //   0  char[8]  magic "HPCGIFF\0"          40 uint64   mesh_hash(mesh)
@@ -13,12 +15,12 @@
 //
 // Version 2 (issue 17) holds F sparse: the same header with version 2, storage "csr", "csrd16" (compressed) or "runs",
 // precision "float32", "float16" or "bf16" (bfloat16) and at 64 the bytes of the payload that follows (radiosity/solve/storage/ff_matrix.hpp
-// describes the storages; radiosity/solve/storage/ff_matrix_file.hpp writes and reads the payload); then the payload's
+// describes the storages; radiosity/formfactor/file/sparse.hpp writes and reads the payload); then the payload's
 // checksum as above. Dense files stay version 1, byte for byte as before, and every reader of dense F (relight,
 // web, backend mpi, the peers) refuses a version 2 file with one line.
 //
 // The file does not depend on how it was made: one process, or MPI ranks each writing their rows into it in parallel
-// (radiosity/dist/ff_mpi.hpp) give the same bytes, and any number of ranks reads either.
+// (radiosity/formfactor/file/mpi_rows.hpp) give the same bytes, and any number of ranks reads either.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -49,7 +51,6 @@ struct FormFactorFileInfo {
   uint32_t version = 1;
   std::string storage = "dense", precision = "float32";  // version 2: the sparse storage and its values
   uint64_t payload_bytes = 0;                             // the bytes between the header and the checksum
-  uint64_t values_offset() const { return kFormFactorHeaderBytes; }
   uint64_t row_offset(size_t i) const { return kFormFactorHeaderBytes + 4 * uint64_t(i) * n; }
   uint64_t checksum_offset() const { return row_offset(n); }
   uint64_t file_bytes() const { return checksum_offset() + 8; }
@@ -75,6 +76,9 @@ std::array<char, kFormFactorHeaderBytes> form_factor_header(const Mesh& mesh, co
 // Opens path and checks its header and size against `expected`, with every refusal of load_form_factors but the
 // checksum (the values are not read). A version 2 (sparse) file is refused, saying what it holds.
 FormFactorFileInfo check_form_factor_file(const std::string& path, const Mesh& expected);
+
+// A version 2 (sparse) file refused with one line saying what it holds, by a reader of dense float32 F.
+void refuse_sparse(const FormFactorFileInfo& info, const std::string& path);
 
 // The same checks for a file of either version: what a reader of sparse F calls first.
 FormFactorFileInfo check_any_form_factor_file(const std::string& path, const Mesh& expected);

@@ -1,4 +1,4 @@
-#include "radiosity/solve/storage/ff_matrix_file.hpp"
+#include "radiosity/formfactor/file/sparse.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "common/errors.hpp"
 #include "common/files.hpp"
 #include "common/one_line.hpp"
-#include "radiosity/formfactor/ff_file.hpp"
+#include "radiosity/formfactor/file/format.hpp"
 #include "radiosity/solve/storage/half.hpp"
 
 namespace radiosity {
