@@ -1,4 +1,4 @@
-"""The stopping rules of `bin/radiosity solve --stop`, as radiosity/solve/methods/stop_rule.cpp computes them,
+"""The stopping rules of `bin/radiosity solve --stop`, as radiosity/solve/config/stop_rule.cpp computes them,
 evaluated on a record's residual history (result.history): the Table 4.2 audit (analysis/table42_audit.py) replays
 every run's stop with them."""
 import math

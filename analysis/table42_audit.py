@@ -3,7 +3,7 @@ Gauss-Seidel beside Jacobi and BiCG-STAB, from the table42-audit and table42 rec
 
 Every audit solve ran with --history: its record holds, per iterate b_k, the norms its method measured (squares of
 2-norms per channel, the ∞-norms; null where not known), so `replay` evaluates any stopping rule on it exactly as
-radiosity/solve/methods/stop_rule.cpp does, and the tables check that each run's own count is what its history replays."""
+radiosity/solve/config/stop_rule.cpp does, and the tables check that each run's own count is what its history replays."""
 import math
 
 import matplotlib

@@ -40,7 +40,7 @@ void require_rows_for_ranks(size_t patches, int ranks);
 void check_files(const SceneArgs& a, std::vector<hpcgi::files::Output> outputs,
                  const std::vector<hpcgi::files::Output>& inputs);
 
-// An option whose value is one of a SolveConfig choice's names (radiosity/solve/choices.hpp; `only` those of them
+// An option whose value is one of a SolveConfig choice's names (radiosity/solve/config/choices.hpp; `only` those of them
 // where given): CLI11 checks the name, its callback parses it into `value`, once; --help shows the default's name.
 template <class E>
 CLI::Option* add_choice(CLI::App* cmd, const std::string& flag, E& value, E (*parse)(const std::string&),

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity::app {
 

@@ -14,7 +14,7 @@
 #include "radiosity/app/solve_plan.hpp"
 #include "radiosity/dist/split.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity::app {
 

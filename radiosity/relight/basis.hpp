@@ -12,7 +12,7 @@
 
 #include "radiosity/mesh.hpp"
 #include "radiosity/relight/entities.hpp"
-#include "radiosity/solve/config.hpp"
+#include "radiosity/solve/config/config.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 
 namespace radiosity::relight {

@@ -7,7 +7,7 @@
 
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/methods/multi_rhs.hpp"
 #include "radiosity/solve/solve.hpp"
 #include "radiosity/solve/physical.hpp"

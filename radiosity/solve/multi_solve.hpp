@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/config.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/config/config.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/config.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/config/config.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 

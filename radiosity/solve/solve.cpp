@@ -9,7 +9,7 @@
 #include "common/cli.hpp"
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/methods/methods.hpp"
 #include "radiosity/solve/physical.hpp"
 
@@ -188,7 +188,7 @@ const SolveBackend* find_backend(const std::string& name) {
 
 bool solve_one_channel(const System& sys, const SolveConfig& cfg) {
   const SolveBackend* b = find_backend(cfg.backend);
-  return cfg.channels == Channels::automatic && b && b->one_channel && is_grey(sys);
+  return b && b->one_channel && grey_as_one_channel(sys, cfg);
 }
 
 const SolveBackend& require_backend(const std::string& name) {

@@ -1,15 +1,24 @@
-"""The folders of radiosity/solve/ are boundaries (issue 36, item 3): each folder includes only the layers below it.
+"""The include rules (issues 36 and 51): every folder of radiosity/ and common/ is a layer, named by its folder, and
+each layer includes only the layers below it. A file's layer is its folder, never its name.
 
-    storage/   the form-factor matrix in its storages and its file: nothing above it (the mesh, the file format
-               of radiosity/formfactor/, common/ and storage/ itself)
-    config     config.hpp, choices.hpp, methods/stop_rule.hpp: what a solve is asked and says
-    core       system.hpp, layout.hpp: the system and the vector layouts, over storage/
-    host/      the host kernel library (linear algebra, dense and sparse products, sweeps, the executor): core and below
-    contract   kernels.hpp, what a backend supplies: core and below
-    methods/   the methods written once: only the contract and the configuration
-    backends   cpu/, gpu/, mpi/: anything of the library; never the application
-    driver     solve.hpp/.cpp, backends.hpp, storage_choice, mesh_map: anything of the library
-and the application (radiosity/app/, radiosity/relight/) calls solve() or a method, never a backend or the kernels.
+    base        common/, radiosity/mesh.hpp: every layer may include them; common/ includes only itself
+    scene       radiosity/scene/: RRV's scenes read and written, the mesh
+    formfactor  radiosity/formfactor/: the hemicube and its references
+    dist        radiosity/dist/: how MPI ranks split rows
+    render      radiosity/render/: pictures of a solved mesh
+  the solver library, radiosity/solve/:
+    storage     storage/: the form-factor matrix in its storages
+    config      config/: what a solve is asked and says (the configuration, its choices, the stopping rules)
+    core        core/: the system and the vector layouts, over storage/
+    host        host/: the host kernel library (linear algebra, dense and sparse products, sweeps, the executor)
+    contract    contract/: what a backend supplies (the kernels) and the backends' entry points
+    methods     methods/: the methods written once, over the contract
+    backends    cpu/, gpu/, mpi/: the backends, each behind the contract; never the driver
+    driver      the files of radiosity/solve/ itself: the registry, solve(), the storage choice, the mesh maps
+  above it:
+    ffile       radiosity/formfactor/file/: the form-factor file, read into storage/'s matrix
+    relight     radiosity/relight/: the light basis and the frames, over the driver
+    application radiosity/app/ and radiosity/main.cpp: calls the driver or a method, never a backend or the kernels
 
 OPEN lists the known breaks not yet fixed, each with its reason; an entry that no longer breaks a rule fails the test
 too, so that the list only shrinks. test_a_planted_wrong_way_include_is_found plants wrong-way includes in a copy of
@@ -22,73 +31,89 @@ ROOT = Path(__file__).resolve().parents[2]
 INCLUDE = re.compile(r'^\s*#\s*include\s+"((?:radiosity|common)/[^"]+)"', re.M)
 SOURCES = (".hpp", ".cpp", ".cuh", ".cu", ".h")
 
-CONFIG = {"radiosity/solve/config.hpp", "radiosity/solve/choices.hpp", "radiosity/solve/choices.cpp",
-          "radiosity/solve/methods/stop_rule.hpp", "radiosity/solve/methods/stop_rule.cpp"}
-CORE = {"radiosity/solve/system.hpp", "radiosity/solve/system.cpp", "radiosity/solve/layout.hpp"}
-CONTRACT = {"radiosity/solve/kernels.hpp"}
-BASE = ("radiosity/mesh.hpp", "common/", "radiosity/formfactor/")
+# The layers by folder (a path's longest matching folder decides); radiosity/mesh.hpp is base.
+FOLDERS = {
+    "common": "common",
+    "radiosity/scene": "scene",
+    "radiosity/formfactor": "formfactor",
+    "radiosity/formfactor/file": "ffile",
+    "radiosity/dist": "dist",
+    "radiosity/render": "render",
+    "radiosity/solve/storage": "storage",
+    "radiosity/solve/config": "config",
+    "radiosity/solve/core": "core",
+    "radiosity/solve/host": "host",
+    "radiosity/solve/contract": "contract",
+    "radiosity/solve/methods": "methods",
+    "radiosity/solve/cpu": "backends",
+    "radiosity/solve/gpu": "backends",
+    "radiosity/solve/mpi": "backends",
+    "radiosity/solve": "driver",
+    "radiosity/relight": "relight",
+    "radiosity/app": "application",
+    "radiosity": "application",  # main.cpp: the program
+}
+BASE = {"common", "base"}
+SOLVER = ("storage", "config", "core", "host", "contract", "methods", "backends", "driver")
 
-
-def layer(path):
-    """The layer of a file of radiosity/ (a path relative to the root), or None outside the rules."""
-    if path in CONFIG:
-        return "config"
-    if path in CORE:
-        return "core"
-    if path in CONTRACT:
-        return "contract"
-    for folder, name in (("storage", "storage"), ("host", "host"), ("methods", "methods"), ("cpu", "backends"),
-                         ("gpu", "backends"), ("mpi", "backends")):
-        if path.startswith(f"radiosity/solve/{folder}/"):
-            return name
-    if path.startswith("radiosity/solve/"):
-        return "driver"
-    if path.startswith(("radiosity/app/", "radiosity/relight/")):
-        return "application"
-    return None
-
-
-# What each layer may include, by the included file's layer (BASE files: always).
+# What each layer may include besides the base, by the included file's layer.
 MAY_INCLUDE = {
+    "common": set(),
+    "scene": {"scene"},
+    "formfactor": {"formfactor"},
+    "dist": {"dist"},
+    "render": {"render"},
     "storage": {"storage"},
     "config": {"config"},
     "core": {"config", "core", "storage"},
     "host": {"config", "core", "storage", "host"},
     "contract": {"config", "core", "storage", "contract"},
     "methods": {"config", "contract", "methods"},
-    "backends": {"config", "core", "storage", "host", "contract", "methods", "backends", "driver"},
-    "driver": {"config", "core", "storage", "host", "contract", "methods", "backends", "driver"},
-    "application": {"config", "core", "storage", "driver", "methods", "application"},
+    "backends": {"config", "core", "storage", "host", "contract", "methods", "backends"},
+    "driver": set(SOLVER),
+    "ffile": {"formfactor", "dist", "storage", "ffile"},
+    "relight": {"formfactor", "ffile", "storage", "config", "core", "driver", "relight"},
+    "application": {"scene", "formfactor", "ffile", "dist", "render", "storage", "config", "core", "methods",
+                    "driver", "relight", "application"},
 }
 
 # Known breaks not yet fixed: (file, included file) -> the reason.
 OPEN = {}
 
 
+def layer(path):
+    """The layer of a file of radiosity/ or common/ (a path relative to the root): its folder's."""
+    if path == "radiosity/mesh.hpp":
+        return "base"
+    folder = path.rsplit("/", 1)[0]
+    while folder:
+        if folder in FOLDERS:
+            return FOLDERS[folder]
+        folder = folder.rsplit("/", 1)[0] if "/" in folder else ""
+    return None
+
+
 def includes(root):
-    """(file, included file) for every quoted include of radiosity/, paths relative to root."""
-    for f in sorted((root / "radiosity").rglob("*")):
-        if f.suffix in SOURCES and f.is_file():
-            rel = f.relative_to(root).as_posix()
-            for inc in INCLUDE.findall(f.read_text(errors="replace")):
-                yield rel, inc
+    """(file, included file) for every quoted include of radiosity/ and common/, paths relative to root."""
+    for top in ("radiosity", "common"):
+        for f in sorted((root / top).rglob("*")):
+            if f.suffix in SOURCES and f.is_file():
+                rel = f.relative_to(root).as_posix()
+                for inc in INCLUDE.findall(f.read_text(errors="replace")):
+                    yield rel, inc
 
 
 def violations(root):
     """The includes that break the rules: (file, included file, why)."""
     out = []
     for src, inc in includes(root):
-        have = layer(src)
-        if have is None or inc.startswith(BASE):
+        have, want = layer(src), layer(inc)
+        if have is None or want is None:
+            out.append((src, inc, f"a file outside the layers ({src if have is None else inc})"))
             continue
-        if have != "application" and inc.startswith("radiosity/") and not inc.startswith("radiosity/solve/"):
-            if have != "driver" or not inc.startswith("radiosity/mesh"):
-                out.append((src, inc, f"the library ({have}) includes {inc}, outside it"))
+        if want in BASE and not (have == "common" and want == "base"):
             continue
-        want = layer(inc)
-        if want is None:
-            continue
-        if want not in MAY_INCLUDE[have]:
+        if want != have and want not in MAY_INCLUDE[have]:
             out.append((src, inc, f"{have} includes {want}"))
     return out
 
@@ -102,10 +127,13 @@ def test_the_tree_keeps_the_include_rules():
     assert not stale, f"OPEN entries that no longer break a rule (remove them): {stale}"
 
 
-def test_the_rules_see_every_folder():
+def test_every_folder_is_a_layer():
+    sources = [f for top in ("radiosity", "common") for f in (ROOT / top).rglob("*")
+               if f.suffix in SOURCES and f.is_file()]
+    outside = sorted({f.relative_to(ROOT).as_posix() for f in sources if layer(f.relative_to(ROOT).as_posix()) is None})
+    assert not outside, f"files in no layer (name their folder's layer in FOLDERS): {outside}"
     layers = {layer(s) for s, _ in includes(ROOT)}
-    assert {"storage", "config", "core", "host", "contract", "methods", "backends", "driver",
-            "application"} <= layers, layers
+    assert set(MAY_INCLUDE) <= layers, set(MAY_INCLUDE) - layers
 
 
 def plant(root, rel, include):
@@ -114,17 +142,24 @@ def plant(root, rel, include):
 
 
 def test_a_planted_wrong_way_include_is_found(tmp_path):
-    shutil.copytree(ROOT / "radiosity", tmp_path / "radiosity",
-                    ignore=shutil.ignore_patterns("scenes", "web", "*.json", "*.xml"))
+    for top in ("radiosity", "common"):
+        shutil.copytree(ROOT / top, tmp_path / top, ignore=shutil.ignore_patterns("scenes", "web", "*.json", "*.xml",
+                                                                                   "*.py", "__pycache__"))
     assert [v for v in violations(tmp_path) if (v[0], v[1]) not in OPEN] == []
-    planted = [("radiosity/solve/storage/ff_matrix.hpp", "radiosity/solve/solve.hpp"),     # storage -> driver
+    planted = [("radiosity/solve/storage/ff_matrix.hpp", "radiosity/solve/solve.hpp"),      # storage -> driver
                ("radiosity/solve/storage/row_blocks.cpp", "radiosity/solve/host/linalg.hpp"),  # storage -> host
-               ("radiosity/solve/methods/methods.hpp", "radiosity/solve/host/exec.hpp"),   # methods -> host
-               ("radiosity/solve/methods/bicgstab.cpp", "radiosity/solve/solve.hpp"),      # methods -> driver
+               ("radiosity/solve/methods/methods.hpp", "radiosity/solve/host/exec.hpp"),    # methods -> host
+               ("radiosity/solve/methods/bicgstab.cpp", "radiosity/solve/solve.hpp"),       # methods -> driver
                ("radiosity/solve/host/linalg.hpp", "radiosity/solve/methods/methods.hpp"),  # host -> methods
-               ("radiosity/solve/system.hpp", "radiosity/solve/kernels.hpp"),              # core -> contract
-               ("radiosity/solve/cpu/serial.cpp", "radiosity/app/solve_load.hpp"),          # library -> application
-               ("radiosity/app/solve_run.cpp", "radiosity/solve/cpu/cpu_kernels.hpp")]     # application -> backend
+               ("radiosity/solve/core/system.hpp", "radiosity/solve/contract/kernels.hpp"),  # core -> contract
+               ("radiosity/solve/cpu/serial.cpp", "radiosity/solve/solve.hpp"),              # backend -> driver
+               ("radiosity/solve/gpu/cuda_aos.cu", "radiosity/solve/storage_choice.hpp"),    # backend -> driver
+               ("radiosity/solve/cpu/serial.cpp", "radiosity/app/solve_load.hpp"),           # library -> application
+               ("radiosity/app/solve_run.cpp", "radiosity/solve/cpu/cpu_kernels.hpp"),      # application -> backend
+               ("radiosity/scene/subdivide.cpp", "radiosity/formfactor/hemicube.hpp"),      # scene -> formfactor
+               ("radiosity/formfactor/hemicube.cpp", "radiosity/formfactor/file/file.hpp"),  # formfactor -> ffile
+               ("radiosity/relight/frames.cpp", "radiosity/app/commands.hpp"),               # relight -> application
+               ("common/files.cpp", "radiosity/mesh.hpp")]                                   # common -> radiosity
     for rel, inc in planted:
         plant(tmp_path, rel, inc)
     found = {(s, i) for s, i, _ in violations(tmp_path)}

@@ -11,10 +11,10 @@
 #include "common/errors.hpp"
 #include "common/read_sweep.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/kernels.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
 #include "radiosity/solve/host/linalg.hpp"
 #include "radiosity/solve/host/sor_sweep.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 

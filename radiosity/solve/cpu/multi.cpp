@@ -1,5 +1,5 @@
 // The serial and openmp backends' k-right-hand-side kernels (cpu/multi_kernels.hpp) with their executors.
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/cpu/multi_kernels.hpp"
 #include "radiosity/solve/host/exec.hpp"
 

@@ -10,8 +10,8 @@
 
 #include "common/timer.hpp"
 #include "radiosity/solve/host/linalg.hpp"
-#include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 

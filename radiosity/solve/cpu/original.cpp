@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "common/timer.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/methods/divergence.hpp"
 
 namespace radiosity {

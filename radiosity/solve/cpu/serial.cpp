@@ -1,5 +1,5 @@
 // Backend `serial`: the shared kernels on one thread, no OpenMP runtime involved.
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/cpu/cpu_kernels.hpp"
 #include "radiosity/solve/host/exec.hpp"
 
@@ -7,7 +7,7 @@ namespace radiosity {
 
 template <class T>
 std::unique_ptr<Kernels<T>> make_serial(const System& sys, const SolveConfig& cfg, int vectors) {
-  if (solve_one_channel(sys, cfg)) return std::make_unique<CpuKernels<T, Grey, SerialExec>>(sys, vectors, SerialExec{});
+  if (grey_as_one_channel(sys, cfg)) return std::make_unique<CpuKernels<T, Grey, SerialExec>>(sys, vectors, SerialExec{});
   if (cfg.layout == Layout::soa) return std::make_unique<CpuKernels<T, Soa, SerialExec>>(sys, vectors, SerialExec{});
   return std::make_unique<CpuKernels<T, Aos, SerialExec>>(sys, vectors, SerialExec{});
 }

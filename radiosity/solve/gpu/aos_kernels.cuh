@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "radiosity/solve/gpu/device_common.cuh"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity::gpu {
 

@@ -5,7 +5,7 @@
 #include <optional>
 
 #include "radiosity/solve/gpu/aos_kernels.cuh"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/gpu/device_kernels.cuh"
 #include "radiosity/solve/gpu/sparse_device.cuh"
 

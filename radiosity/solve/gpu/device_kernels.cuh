@@ -1,5 +1,5 @@
 // What the GPU backends' kernels add to the Kernels contract: their stream, the clock of CUDA events that splits a
-// run's time (solve.hpp: upload_s, transfer_s, device_compute_s, host_compute_s, transfer_bytes), and the GPU's
+// run's time (config.hpp's SolveResult: upload_s, transfer_s, device_compute_s, host_compute_s, transfer_bytes), and the GPU's
 // description. solve.cpp's driver runs them like every other backend.
 #pragma once
 #include <map>
@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "radiosity/solve/gpu/device_common.cuh"
-#include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/solve.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
+#include "radiosity/solve/config/config.hpp"
 
 namespace radiosity::gpu {
 

@@ -19,7 +19,7 @@
 
 #include "common/timer.hpp"
 #include "radiosity/solve/gpu/aos_kernels.cuh"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/gpu/device_kernels.cuh"
 #include "radiosity/solve/gpu/hybrid_host.hpp"
 

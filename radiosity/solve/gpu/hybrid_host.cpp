@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "radiosity/solve/host/exec.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 

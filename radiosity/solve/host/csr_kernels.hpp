@@ -24,7 +24,7 @@
 
 #include "radiosity/solve/host/runs_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
 
 namespace radiosity {

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 
 namespace radiosity {
 

@@ -16,7 +16,7 @@
 #include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/host/row_block_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
 
 namespace radiosity {

@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "radiosity/solve/host/csr_kernels.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/storage/row_blocks.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
 

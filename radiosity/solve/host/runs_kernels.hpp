@@ -26,7 +26,7 @@
 #include <optional>
 #include <type_traits>
 
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "radiosity/solve/storage/stored_values.hpp"
 

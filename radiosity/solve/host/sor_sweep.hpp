@@ -20,7 +20,7 @@
 #include "radiosity/mesh.hpp"
 #include "radiosity/solve/host/csr_kernels.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "common/timer.hpp"
-#include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/config.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
+#include "radiosity/solve/config/config.hpp"
 
 namespace radiosity {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/config.hpp"
-#include "radiosity/solve/kernels.hpp"
+#include "radiosity/solve/config/config.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
 
 namespace radiosity {
 

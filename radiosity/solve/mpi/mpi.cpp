@@ -25,9 +25,9 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/host/exec.hpp"
-#include "radiosity/solve/layout.hpp"
+#include "radiosity/solve/core/layout.hpp"
 #include "radiosity/solve/host/linalg.hpp"
 
 namespace radiosity {
@@ -221,7 +221,7 @@ std::unique_ptr<Kernels<T>> make_mpi(const System& sys, const SolveConfig& cfg, 
   if (!hpcgi::comm::active())
     throw hpcgi::UsageError("backend mpi needs MPI initialised: run bin/radiosity (which does so for --backend mpi), "
                             "under mpirun -np P");
-  if (solve_one_channel(sys, cfg)) return std::make_unique<MpiKernels<T, Grey>>(sys, vectors, cfg.threads);
+  if (grey_as_one_channel(sys, cfg)) return std::make_unique<MpiKernels<T, Grey>>(sys, vectors, cfg.threads);
   if (cfg.layout == Layout::soa) return std::make_unique<MpiKernels<T, Soa>>(sys, vectors, cfg.threads);
   return std::make_unique<MpiKernels<T, Aos>>(sys, vectors, cfg.threads);
 }

@@ -15,7 +15,7 @@
 #include "common/comm.hpp"
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/host/exec.hpp"
 #include "radiosity/solve/host/linalg.hpp"
 

@@ -1,5 +1,5 @@
 // The one way the solve tests build a SolveConfig: the choices by the names bin/radiosity's options take, parsed as
-// the options parse them (radiosity/solve/choices.hpp), two threads, and the tolerance each working precision can
+// the options parse them (radiosity/solve/config/choices.hpp), two threads, and the tolerance each working precision can
 // reach (float 1e-6, double 1e-12) unless steps are fixed. A test sets what else it varies on the result.
 #pragma once
 #include <gtest/gtest.h>

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace solve_test {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "common/errors.hpp"
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
 #include "radiosity/solve/methods/methods.hpp"
 #include "radiosity/solve/storage/ff_matrix.hpp"
 #include "configs.hpp"

@@ -8,7 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include "radiosity/solve/backends.hpp"
+#include "radiosity/solve/contract/backends.hpp"
+#include "radiosity/solve/solve.hpp"
 #include "radiosity/solve/gpu/hybrid_host.hpp"
 #include "reference.hpp"
 

@@ -11,9 +11,16 @@
 
 #include "common/errors.hpp"
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/config/config.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
+
+// Whether a backend that solves a grey system as one channel (SolveBackend::one_channel) does so in this run:
+// cfg.channels is auto and the system is grey. The driver's solve_one_channel is this and the backend's fact.
+inline bool grey_as_one_channel(const System& sys, const SolveConfig& cfg) {
+  return cfg.channels == Channels::automatic && is_grey(sys);
+}
 
 struct SolveResult;
 

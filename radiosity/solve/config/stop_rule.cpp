@@ -1,4 +1,4 @@
-#include "radiosity/solve/methods/stop_rule.hpp"
+#include "radiosity/solve/config/stop_rule.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "radiosity/mesh.hpp"
-#include "radiosity/solve/choices.hpp"
-#include "radiosity/solve/methods/stop_rule.hpp"
+#include "radiosity/solve/config/choices.hpp"
+#include "radiosity/solve/config/stop_rule.hpp"
 
 namespace radiosity {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "radiosity/solve/methods/stop_rule.hpp"
+#include "radiosity/solve/config/stop_rule.hpp"
 
 namespace radiosity {
 

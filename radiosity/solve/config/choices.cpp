@@ -1,4 +1,4 @@
-#include "radiosity/solve/choices.hpp"
+#include "radiosity/solve/config/choices.hpp"
 
 #include <algorithm>
 

@@ -1,4 +1,4 @@
-#include "radiosity/solve/system.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 #include <algorithm>
 #include <cmath>

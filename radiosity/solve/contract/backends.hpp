@@ -3,8 +3,9 @@
 #include <memory>
 #include <vector>
 
-#include "radiosity/solve/kernels.hpp"
-#include "radiosity/solve/solve.hpp"
+#include "radiosity/solve/contract/kernels.hpp"
+#include "radiosity/solve/config/config.hpp"
+#include "radiosity/solve/core/system.hpp"
 
 namespace radiosity {
 
