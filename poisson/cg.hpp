@@ -211,7 +211,7 @@ CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, co
 template <class T>
 CgResult run_variant(Kernels<T>& k, Variant variant, double tol, long max_iter, const CgProgress& progress = nullptr) {
   if (variant == Variant::classic) return run_cg(k, tol, max_iter, progress);
-  auto* s = dynamic_cast<OneSweepKernels<T>*>(&k);
+  OneSweepKernels<T>* s = k.one_sweep();
   if (!s) throw std::logic_error("backend made without the one-sweep kernels check_config promised");
   return run_cg_onesweep(*s, tol, max_iter, progress);
 }
@@ -222,7 +222,7 @@ template <class T>
 CgResult run_config(Kernels<T>& k, const Config& cfg, double tol, long max_iter,
                     const CgProgress& progress = nullptr) {
   if (!cfg.multigrid()) return run_variant(k, cfg.variant, tol, max_iter, progress);
-  auto* m = dynamic_cast<Preconditioned*>(&k);
+  Preconditioned* m = k.multigrid();
   if (!m) throw std::logic_error("backend made without the multigrid kernels check_config promised");
   return cfg.method == Method::fmg ? run_fmg(k, *m, tol, max_iter, progress) : run_pcg(k, *m, tol, max_iter, progress);
 }

@@ -204,6 +204,12 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
     CUDA_CHECK_LAUNCH();
   }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(B::n_); }
+  std::vector<double> fmg_vectors_per_level() const override {
+    return poisson::fmg_vectors_per_level(B::n_, kSeparateLevelKernels);
+  }
+  double fmg_correction_vectors() const override { return kFmgCorrectionVectors; }
+  OneSweepKernels<T>* one_sweep() override { return this; }
+  Preconditioned* multigrid() override { return this; }
   double apply_dot(const GridFn& x, const GridFn& y) override {
     std::vector<T> h(B::size_, T(0));
     for (long j = 0; j < B::n_; ++j)
@@ -266,7 +272,7 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
   }
 
   int vectors_per_iteration() const override {
-    return mg_ ? (fmg_ ? 7 : 11 + 2) + mg_vectors_per_cycle(B::n_)
+    return mg_ ? (fmg_ ? kFmgCorrectionVectors : 11 + 2) + mg_vectors_per_cycle(B::n_)
                : onesweep_ ? kVectorsOneSweep : kVectorsClassic;
   }
   std::map<std::string, std::string> info() const override {

@@ -19,6 +19,10 @@
 namespace poisson {
 
 template <class T>
+class OneSweepKernels;
+class Preconditioned;
+
+template <class T>
 class Kernels {
  public:
   virtual ~Kernels() = default;
@@ -42,6 +46,11 @@ class Kernels {
   virtual std::map<std::string, std::string> info() const = 0;
   // Whether this process prints and writes records (rank 0 of an MPI run, always true otherwise).
   virtual bool is_root() const { return true; }
+  // What the backend runs beyond classic CG, as it declares it (null: not this backend): the one-sweep kernels
+  // (--variant onesweep) and the multigrid hierarchy (--precond mg, --method fmg). check_config refuses a request
+  // for what a backend lacks before it is made.
+  virtual OneSweepKernels<T>* one_sweep() { return nullptr; }
+  virtual Preconditioned* multigrid() { return nullptr; }
 };
 
 // What one sweep returns: γ = r·r and δ = r·Ar of the new residual.
@@ -84,6 +93,12 @@ class Preconditioned {
   virtual double solve_cycle(bool full) = 0;
   // Grid sizes of the hierarchy, finest first (for the record).
   virtual std::vector<long> mg_sizes() const = 0;
+  // The data-movement model of solve_cycle(true), the first iteration of --method fmg, on this backend's own
+  // kernels, in vectors of N² (for the record's bandwidth): the F-cycle on each level, finest first (mg.hpp's
+  // fmg_vectors_per_level with the backend's level kernels), and what the iteration adds after it (x += z, r -= A z
+  // where the cycles run on the correction z; 0 where they run on x).
+  virtual std::vector<double> fmg_vectors_per_level() const = 0;
+  virtual double fmg_correction_vectors() const = 0;
   // y·(M⁻¹x) for whole-grid vectors given as functions of the point (i, j): r = x (this rank's rows), z = M⁻¹ r,
   // the dot with y reduced over every rank. It overwrites r and z, so it runs before a solve (whose init resets
   // them): the symmetry check of mg.hpp (--check-symmetry) and the tests.

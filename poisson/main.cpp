@@ -92,12 +92,13 @@ nlohmann::json verify_section(const poisson::Check* c) {
   return v;
 }
 
-// The bytes a solve of `iterations` moves by the data-movement model: bytes_per_iter each, or with --method fmg
-// (fmg_levels, the F-cycle's vectors per level of mg.hpp, not empty) the F-cycle and its first x += z, r -= Az
-// (5 vectors) as the first iteration.
-double bytes_moved(const std::vector<double>& fmg_levels, long iterations, double bytes_per_iter, double vector) {
+// The bytes a solve of `iterations` moves by the backend's data-movement model: bytes_per_iter each, or with
+// --method fmg (fmg_levels not empty: the backend's F-cycle per level, and fmg_correction after it) the F-cycle
+// and its correction as the first iteration.
+double bytes_moved(const std::vector<double>& fmg_levels, double fmg_correction, long iterations,
+                   double bytes_per_iter, double vector) {
   if (fmg_levels.empty() || iterations == 0) return iterations * bytes_per_iter;
-  double v = 5;
+  double v = fmg_correction;
   for (double l : fmg_levels) v += l;
   return v * vector + (iterations - 1) * bytes_per_iter;
 }
@@ -112,7 +113,8 @@ struct Run {
   int vectors = 0;         // the backend's vectors per iteration
   double vector_bytes = 0; // sizeof(T) N²
   double bytes_per_iter = 0, per_iter = 0, solve_bytes = 0, gbps = 0, dofs = 0;
-  std::vector<double> fmg_levels;  // --method fmg: the F-cycle's vectors per level
+  std::vector<double> fmg_levels;  // --method fmg: the backend's F-cycle, its vectors per level
+  double fmg_correction = 0;       // and what its first iteration adds after it
   std::vector<long> sizes;         // the multigrid hierarchy, finest first
   poisson::Check check;
   hpcgi::Outcome outcome;
@@ -121,14 +123,17 @@ struct Run {
 
 // The data-movement figures of a finished run (rank 0).
 template <class T>
-void add_perf(const Args& a, const poisson::Kernels<T>& k, Run& u) {
+void add_perf(const Args& a, poisson::Kernels<T>& k, Run& u) {
   const double n2 = static_cast<double>(a.cfg.n) * static_cast<double>(a.cfg.n);
   u.vectors = k.vectors_per_iteration();
   u.vector_bytes = sizeof(T) * n2;
   u.bytes_per_iter = u.vectors * u.vector_bytes;
   u.per_iter = u.r.iterations > 0 ? u.r.solve_s / u.r.iterations : 0.0;
-  if (a.cfg.method == poisson::Method::fmg) u.fmg_levels = poisson::fmg_vectors_per_level(a.cfg.n);
-  u.solve_bytes = bytes_moved(u.fmg_levels, u.r.iterations, u.bytes_per_iter, u.vector_bytes);
+  if (a.cfg.method == poisson::Method::fmg) {
+    u.fmg_levels = k.multigrid()->fmg_vectors_per_level();
+    u.fmg_correction = k.multigrid()->fmg_correction_vectors();
+  }
+  u.solve_bytes = bytes_moved(u.fmg_levels, u.fmg_correction, u.r.iterations, u.bytes_per_iter, u.vector_bytes);
   u.gbps = u.r.solve_s > 0 ? u.solve_bytes / u.r.solve_s / 1e9 : 0.0;
   u.dofs = u.r.solve_s > 0 ? n2 / u.r.solve_s : 0.0;  // HPGMG's figure: unknowns over the solve's time
 }
@@ -166,7 +171,10 @@ nlohmann::json record_of(const Args& a, const Run& u) {
                  {"dof_per_s", u.dofs},
                  {"timer", poisson::backend_entry(a.cfg.backend).gpu ? "host wall clock, device synchronised"
                                                                      : "host wall clock"}};
-  if (!u.fmg_levels.empty()) rec["perf"]["fmg_vectors_per_level"] = u.fmg_levels;
+  if (!u.fmg_levels.empty()) {
+    rec["perf"]["fmg_vectors_per_level"] = u.fmg_levels;
+    rec["perf"]["fmg_correction_vectors"] = u.fmg_correction;
+  }
   rec["backend_info"] = u.info;
   if (a.min_time > 0) rec["repetitions"] = hpcgi::to_json(u.reps);
   return rec;
@@ -204,7 +212,7 @@ int solve(const Args& a) {
   auto k = poisson::make_kernels<T>(a.cfg);
   u.alloc_s = t.seconds();
   const bool root = k->is_root();
-  auto* pre = dynamic_cast<poisson::Preconditioned*>(k.get());
+  poisson::Preconditioned* pre = k->multigrid();
   // Before the solve: the check overwrites r and z, which the solve's init resets.
   u.asymmetry = a.cfg.check_symmetry ? poisson::mg_asymmetry(*pre, a.cfg.n) : 0.0;
   u.fixed = a.steps > 0;

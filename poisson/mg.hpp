@@ -175,32 +175,46 @@ inline void fmg(MgLevels& k) {
   }
 }
 
-// The data-movement model of --method fmg with the level kernels of mg_cpu.hpp (x_0 the solution itself, updated in
-// place), in vectors of N². A cycle from zero on a level: presmooth_restrict (read b, write x, write a quarter:
-// 2.25) and prolong_smooth (read a quarter, read b and x, write x: 3.25): 5.5. A cycle from x: smooth_restrict
-// (read x and b, write x, write a quarter: 3.25) and prolong_smooth (3.25): 6.5; on level 0 the last pass also sums
-// ‖b - A x‖² (no extra memory). The F-cycle, on each level l but the coarsest: restrict_rhs (read b, write a
-// quarter: 1.25), interpolate (read a quarter, write x: 1.25), the cycle from x (6.5) and the cycles from zero
-// below it (5.5 on each coarser level). Each scaled by (n_l / N)².
-inline constexpr double kSolveCycleFromZero = 5.5, kSolveCycleFromX = 6.5, kFmgTransfers = 2.5;
+// The data-movement model of --method fmg, in vectors of N², for level kernels of these costs on a level of n_l²
+// points (each scaled by (n_l / N)²): a solver V-cycle from zero on a level (vcycle_solve from x = 0, the levels
+// below it counted apart), one from the current x, and the F-cycle's own transfers (restrict_rhs and interpolate).
+struct LevelKernelCosts {
+  double cycle_from_zero, cycle_from_x, fmg_transfers;
+};
+// The fused level kernels of mg_cpu.hpp (openmp, mpi; x_0 the solution itself, updated in place). A cycle from zero:
+// presmooth_restrict (read b, write x, write a quarter: 2.25) and prolong_smooth (read a quarter, read b and x,
+// write x: 3.25): 5.5. From x: smooth_restrict (read x and b, write x, write a quarter: 3.25) and prolong_smooth
+// (3.25): 6.5; on level 0 the last pass also sums ‖b - A x‖² (no extra memory). Transfers: restrict_rhs (read b,
+// write a quarter: 1.25), interpolate (read a quarter, write x: 1.25).
+inline constexpr LevelKernelCosts kFusedLevelKernels{5.5, 6.5, 2.5};
+// MgLevels' own composition of separate kernels (serial, and cuda's mg_cuda.cuh), at mg_vectors_per_cycle's costs:
+// x = 0 (1), a colour sweep (2), the residual (3), the restriction (1, and a quarter written), the prolongation (2,
+// and a quarter read). From zero: zero, two sweeps, residual, restriction, prolongation, two sweeps: 15.5. From x:
+// the same without x = 0: 14.5. Transfers: restrict_rhs (x = 0, residual, restriction: 5.25), interpolate (x = 0,
+// prolongation: 3.25): 8.5.
+inline constexpr LevelKernelCosts kSeparateLevelKernels{15.5, 14.5, 8.5};
+// What the backends that cycle on the correction z (serial, cuda) add to each fmg iteration: w = A z, x += z,
+// r -= w, r·r (their vectors_per_iteration counts it too).
+inline constexpr int kFmgCorrectionVectors = 7;
 
-// Vectors of N² of one solver V-cycle from x (vcycle_solve on level 0) of the hierarchy.
+// Vectors of N² of one solver V-cycle from x (vcycle_solve on level 0) of the hierarchy, fused level kernels.
 inline double mg_solve_vectors_per_cycle(long n) {
   const std::vector<long> s = mg_level_sizes(n);
-  double v = s.size() > 1 ? kSolveCycleFromX : 0;
+  double v = s.size() > 1 ? kFusedLevelKernels.cycle_from_x : 0;
   for (size_t l = 1; l < s.size(); ++l)
-    v += kSolveCycleFromZero * (static_cast<double>(s[l]) / n) * (static_cast<double>(s[l]) / n);
+    v += kFusedLevelKernels.cycle_from_zero * (static_cast<double>(s[l]) / n) * (static_cast<double>(s[l]) / n);
   return v;
 }
 
-// Vectors of N² the F-cycle moves on each level, finest first (its total is their sum).
-inline std::vector<double> fmg_vectors_per_level(long n) {
+// Vectors of N² the F-cycle moves on each level, finest first (its total is their sum), with level kernels of
+// these costs: on each level l but the coarsest, its transfers and the cycle from x, and the cycles from zero below.
+inline std::vector<double> fmg_vectors_per_level(long n, const LevelKernelCosts& c) {
   const std::vector<long> s = mg_level_sizes(n);
   std::vector<double> v(s.size(), 0.0);
   auto w = [n](long m) { return (static_cast<double>(m) / n) * (static_cast<double>(m) / n); };
   for (size_t l = 0; l + 1 < s.size(); ++l) {
-    v[l] += (kFmgTransfers + kSolveCycleFromX) * w(s[l]);
-    for (size_t m = l + 1; m < s.size(); ++m) v[m] += kSolveCycleFromZero * w(s[m]);
+    v[l] += (c.fmg_transfers + c.cycle_from_x) * w(s[l]);
+    for (size_t m = l + 1; m < s.size(); ++m) v[m] += c.cycle_from_zero * w(s[m]);
   }
   return v;
 }

@@ -64,6 +64,12 @@ class Mpi final : public OneSweepKernels<T>, public Preconditioned, public MgCom
   }
   double calc_ur_p(double alpha) override { return sum(pcg_->calc_ur_p(alpha)); }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
+  std::vector<double> fmg_vectors_per_level() const override {
+    return poisson::fmg_vectors_per_level(n_, kFusedLevelKernels);
+  }
+  double fmg_correction_vectors() const override { return 0; }  // the cycles run on x
+  OneSweepKernels<T>* one_sweep() override { return this; }
+  Preconditioned* multigrid() override { return this; }
   double apply_dot(const GridFn& x, const GridFn& y) override { return sum(pcg_->apply_dot(x, y, part_.y0)); }
   // MgComm.
   void halo(CpuLevel<T>& lv, T* v) override {

@@ -28,6 +28,12 @@ class OpenMP final : public OneSweepKernels<T>, public Preconditioned {
   double calc_p_pw(double beta) override { return pcg_->calc_p_pw(beta, [] {}); }
   double calc_ur_p(double alpha) override { return pcg_->calc_ur_p(alpha); }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(blk_.rows()); }
+  std::vector<double> fmg_vectors_per_level() const override {
+    return poisson::fmg_vectors_per_level(blk_.rows(), kFusedLevelKernels);
+  }
+  double fmg_correction_vectors() const override { return 0; }  // the cycles run on x
+  OneSweepKernels<T>* one_sweep() override { return this; }
+  Preconditioned* multigrid() override { return this; }
   double apply_dot(const GridFn& x, const GridFn& y) override { return pcg_->apply_dot(x, y, 0); }
   double init() override { return blk_.init(); }
   double calc_w() override { return blk_.calc_w(); }

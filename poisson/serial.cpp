@@ -145,6 +145,11 @@ class Serial final : public Kernels<T>, public Preconditioned {
     for (long k = 0; k < n_ * n_; ++k) p_[k] = z_[k] + b * p_[k];
   }
   std::vector<long> mg_sizes() const override { return mg_level_sizes(n_); }
+  std::vector<double> fmg_vectors_per_level() const override {
+    return poisson::fmg_vectors_per_level(n_, kSeparateLevelKernels);
+  }
+  double fmg_correction_vectors() const override { return kFmgCorrectionVectors; }
+  Preconditioned* multigrid() override { return this; }
   double apply_dot(const GridFn& x, const GridFn& y) override {
     for (long j = 0; j < n_; ++j)
       for (long i = 0; i < n_; ++i) r_[j * n_ + i] = static_cast<T>(x(i, j));
@@ -211,7 +216,7 @@ class Serial final : public Kernels<T>, public Preconditioned {
   // Unfused loops: [w = Ap] 2, [p·w] 2, [x, r, r·r] 6, [p] 3; with multigrid (mg_vectors, kernels.hpp) [r·z] 2
   // and the V-cycle; fmg after its F-cycle: the V-cycle, [w = Az] 2, [x, r, r·r] 5.
   int vectors_per_iteration() const override {
-    return mg_ ? (fmg_ ? 7 : 13 + 2) + mg_vectors_per_cycle(n_) : kVectorsSerial;
+    return mg_ ? (fmg_ ? kFmgCorrectionVectors : 13 + 2) + mg_vectors_per_cycle(n_) : kVectorsSerial;
   }
   std::map<std::string, std::string> info() const override { return {{"threads", "1"}}; }
 

@@ -84,6 +84,23 @@ def test_record_says_method_and_dof_per_s():
     assert rec["params"]["method"] == "cg" and rec["perf"]["dof_per_s"] > 0
 
 
+# Each backend's F-cycle by its own kernels (poisson/mg.hpp): openmp's fused level kernels cycle on x (the finest
+# level's transfers 2.5 and cycle from x 6.5, nothing after); serial's separate kernels cycle on the correction z
+# (transfers 5.25 + 3.25, cycle from x 14.5, then w = A z, x += z, r -= w: 7). The record's bytes and bandwidth
+# follow that model: the F-cycle as the first iteration, vectors_per_iteration for each one after it.
+@pytest.mark.parametrize("backend,finest,correction", [("openmp", 2.5 + 6.5, 0), ("serial", 5.25 + 3.25 + 14.5, 7)])
+def test_bandwidth_follows_the_backends_own_fmg_model(backend, finest, correction):
+    p, rec = poisson("--n", 64, "--backend", backend, "--threads", 1, "--method", "fmg")
+    assert p.returncode == 0, p.stderr
+    perf, its = rec["perf"], rec["result"]["iterations"]
+    assert perf["fmg_vectors_per_level"][0] == finest and perf["fmg_correction_vectors"] == correction
+    vector = perf["bytes_per_iteration"] / perf["vectors_per_iteration"]
+    assert vector == 8 * 64 * 64  # float64
+    first = sum(perf["fmg_vectors_per_level"]) + correction
+    assert perf["solve_bytes"] == pytest.approx((first + (its - 1) * perf["vectors_per_iteration"]) * vector)
+    assert perf["bandwidth_GBps"] == pytest.approx(perf["solve_bytes"] / rec["times_s"]["solve"] / 1e9)
+
+
 @pytest.mark.parametrize("fft", ["scipy", "fftw"])
 def test_records_carry_the_whole_process(fft):
     """times_s.process: the process's life up to its record, start-up included, so never less than the phases it

@@ -53,6 +53,7 @@ class DenseKernels : public poisson::OneSweepKernels<double> {
   std::vector<double> solution() override { return x_; }
   int vectors_per_iteration() const override { return 0; }
   std::map<std::string, std::string> info() const override { return {}; }
+  poisson::OneSweepKernels<double>* one_sweep() override { return this; }
 
  private:
   std::vector<double> apply(const std::vector<double>& v) const {

@@ -154,7 +154,7 @@ TEST(Mg, PreconditionerABackendLacksIsAUsageError) {
 // every cycle from zero that passes through it, scaled by its size; a solver V-cycle is 6.5 on the finest level
 // and 5.5 on each coarser one.
 TEST(Mg, FmgBytesModelByLevel) {
-  const std::vector<double> v = poisson::fmg_vectors_per_level(64);
+  const std::vector<double> v = poisson::fmg_vectors_per_level(64, poisson::kFusedLevelKernels);
   ASSERT_EQ(v.size(), 7u);
   EXPECT_DOUBLE_EQ(v[0], 9.0);
   EXPECT_DOUBLE_EQ(v[1], (9.0 + 5.5) * (32.0 / 64) * (32.0 / 64));
@@ -165,4 +165,18 @@ TEST(Mg, FmgBytesModelByLevel) {
   double cycle = 6.5;
   for (long m = 32; m >= 1; m /= 2) cycle += 5.5 * (m / 64.0) * (m / 64.0);
   EXPECT_DOUBLE_EQ(poisson::mg_solve_vectors_per_cycle(64), cycle);
+}
+
+// The same model for MgLevels' separate kernels (serial, cuda), from the costs of mg_vectors_per_cycle: 23 vectors of
+// N² on the finest level (restrict_rhs 5.25 and interpolate 3.25, the V-cycle from x 14.5), 15.5 for each cycle from
+// zero below; a cycle from zero on every level is mg_vectors_per_cycle's 15.5 per level.
+TEST(Mg, FmgBytesModelOfSeparateLevelKernels) {
+  const std::vector<double> v = poisson::fmg_vectors_per_level(64, poisson::kSeparateLevelKernels);
+  ASSERT_EQ(v.size(), 7u);
+  EXPECT_DOUBLE_EQ(v[0], 23.0);
+  EXPECT_DOUBLE_EQ(v[1], (23.0 + 15.5) * (32.0 / 64) * (32.0 / 64));
+  EXPECT_DOUBLE_EQ(v[6], 6 * 15.5 * (1.0 / 64) * (1.0 / 64));
+  double cycle = 0;
+  for (long m = 64; m >= 1; m /= 2) cycle += poisson::kSeparateLevelKernels.cycle_from_zero * (m / 64.0) * (m / 64.0);
+  EXPECT_EQ(poisson::mg_vectors_per_cycle(64), static_cast<int>(cycle + 0.5));
 }
