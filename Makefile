@@ -37,14 +37,14 @@ LDLIBS   += -lpugixml -lpng $(if $(HAVE_CUDA),-L$(CUDA_HOME)/lib64 -Wl$(comma)-r
 LINK     := $(if $(HAVE_MPI),$(MPICXX),$(CXX))
 # Files that include mpi.h are compiled by the MPI wrapper, the rest by $(CXX). Without MPI, common/comm.cpp is the
 # one-process version of its collectives, and the files that only exist for MPI are left out.
-MPI_SOURCES := poisson/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp \
+MPI_SOURCES := poisson/backends/mpi.cpp poisson/main.cpp common/comm.cpp radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp \
                radiosity/formfactor/file/mpi_rows.cpp
 MPI_ONLY    := radiosity/solve/mpi/mpi.cpp radiosity/solve/mpi/multi_mpi.cpp radiosity/formfactor/file/mpi_rows.cpp
 
 # Modules: each is a set of sources; a unit-test suite tests/unit/<suite>/ links the modules it names.
 MOD_common     := common/cli.cpp common/record.cpp common/memory.cpp common/comm.cpp common/files.cpp
-MOD_poisson    := poisson/serial.cpp poisson/openmp.cpp poisson/backends.cpp poisson/config.cpp poisson/verify.cpp poisson/list_backends.cpp $(if $(HAVE_MPI),poisson/mpi.cpp) \
-                  $(if $(HAVE_CUDA),$(wildcard poisson/*.cu))
+MOD_poisson    := poisson/backends/serial.cpp poisson/backends/openmp.cpp poisson/backends.cpp poisson/config/config.cpp poisson/verify.cpp poisson/list_backends.cpp $(if $(HAVE_MPI),poisson/backends/mpi.cpp) \
+                  $(if $(HAVE_CUDA),$(wildcard poisson/backends/*.cu))
 MOD_scene      := $(wildcard radiosity/scene/*.cpp)
 MOD_formfactor := $(wildcard radiosity/formfactor/*.cpp) radiosity/formfactor/file/format.cpp
 # The form-factor file's reader (radiosity/formfactor/file/file.hpp): sparse files and MPI ranks' rows, over the
@@ -141,7 +141,7 @@ $(BUILD)/gen/build_info.inc: FORCE
 	@cmp -s $@.tmp $@ && rm $@.tmp || mv $@.tmp $@
 $(BUILD)/common/record.cpp.o: $(BUILD)/gen/build_info.inc $(BUILD)/gen/record_schema.inc
 # The record's one definition (common/record.schema.json), built into the programs: its version and its list of
-# environment keys, the same that analysis/record.py reads from the file.
+# environment keys, the same that common/record.py reads from the file.
 $(BUILD)/gen/record_schema.inc: common/record.schema.json
 	@mkdir -p $(@D)
 	@{ printf 'R"HPCGISCHEMA('; cat $<; printf ')HPCGISCHEMA"\n'; } > $@

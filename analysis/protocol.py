@@ -12,7 +12,6 @@ may use, and how tight each timed group is.
 
 Every record left out, and every one without machine state, is counted per records file (COUNTS), and
 `note(files)` says so in one sentence under each table."""
-import importlib.util
 import os
 import subprocess
 import sys
@@ -24,11 +23,8 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parent.parent
 # The timing protocol's one definition of a median's interval and its target (common/timing_protocol.py): the
 # runner stops repeating a case by it, and the tables show it.
-_spec = importlib.util.spec_from_file_location("timing_protocol", Path(__file__).resolve().parent.parent / "common" /
-                                               "timing_protocol.py")
-timing_protocol = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(timing_protocol)
-harness_io = timing_protocol.harness_io  # the one way to open a harness file (common/harness_io.py)
+from common import harness_io  # noqa: E402  (the one way to open a harness file)
+from common import timing_protocol  # noqa: E402
 
 TARGET = timing_protocol.TARGET  # the 95% interval of a group's median within +-5% of it
 WHY = {"dirty": "from a working tree with uncommitted changes", "unknown_commit": "from a commit not in this repository",

@@ -5,7 +5,6 @@ machine label (common/machine_label.py). Everything here reads and writes for on
 one (`machine()`: set by `use(label)`, else $MACHINE, else this machine's label); `on(label)` switches to another
 for a while (the reference machine's numbers beside this machine's), without writing any file for it."""
 import contextlib
-import importlib.util
 import os
 import sys
 from pathlib import Path
@@ -15,17 +14,15 @@ import pandas as pd
 
 from analysis import protocol
 from analysis.escape import md
-from analysis.record import loads, validate
+from common.record import loads, validate
 
 ROOT = Path(__file__).resolve().parent.parent
 # Records, tables and plots live in $RESULTS (default results/), the report's published numbers in results/paper.
 RESULTS = Path(os.environ.get("RESULTS", ROOT / "results")).resolve()
 PAPER = ROOT / "results" / "paper"
 
-_spec = importlib.util.spec_from_file_location("machine_label", ROOT / "common" / "machine_label.py")
-machine_label = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(machine_label)
-harness_io = machine_label.harness_io  # the one way to open a harness file (common/harness_io.py)
+from common import harness_io  # noqa: E402  (the one way to open a harness file)
+from common import machine_label  # noqa: E402
 
 _state = {"machine": None, "write": True}
 

@@ -1,7 +1,7 @@
 """Scaling on paper (issue 35): a latency-bandwidth model of both MPI programs, past the machines we have.
 
 Per iteration, a rank's time is its computation plus its communication:
-  Poisson CG (classic, poisson/mpi.cpp), an N x N grid in row blocks over P ranks:
+  Poisson CG (classic, poisson/backends/mpi.cpp), an N x N grid in row blocks over P ranks:
     compute  N²/P grid points x V vectors x 8 bytes / the rank's memory bandwidth (V = 11: perf.vectors_per_iteration)
     halo     2 messages (one row of p to each neighbour), 8 N bytes each:  2 (alpha + 8 N / beta)
     allreduce 2 dot products of 8 bytes:                                   2 ceil(log2 P) (alpha + 8 / beta)

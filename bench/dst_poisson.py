@@ -23,7 +23,7 @@ import os
 import sys
 import time
 
-from analysis import record
+from common import record
 from bench.peers import Parser, UsageError, positive
 
 FFTW_RODFT00, FFTW_ESTIMATE = 7, 1 << 6  # fftw3.h: enum fftw_r2r_kind_do_not_use_me, planner flags

@@ -20,7 +20,7 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 
-from analysis import record
+from common import record
 from bench import ff_file
 
 
@@ -89,7 +89,7 @@ def scipy_cg(a):
     max_iter = a.max_iter or max(1000, 4 * n)
     t = time.perf_counter()
     h = 1.0 / (n + 1)
-    c = np.arange(1, n + 1) * h  # x_i = (i + 1) h, the same in y (poisson/problem.hpp)
+    c = np.arange(1, n + 1) * h  # x_i = (i + 1) h, the same in y (poisson/config/problem.hpp)
     X, Y = np.meshgrid(c, c)     # row j = y_j, column i = x_i: index j * n + i as bin/poisson --solution
     sx, sy = np.sin(np.pi * X), np.sin(np.pi * Y)
     f = -2 * np.pi ** 2 * (np.cos(2 * np.pi * X) * sy ** 2 + sx ** 2 * np.cos(2 * np.pi * Y))

@@ -17,7 +17,7 @@ a DMDA halves to the end). Times: setup (assembly), pc_setup (ksp.setUp: the mul
 
 Debian's petsc4py (python3-petsc4py, `make deps`) runs only under /usr/bin/python3 and needs
 PETSC_DIR=/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real when Python starts (it restarts itself with it). Bad arguments: exit 2 with
-one line on stderr; stopped by --max-iter: exit 4, broken down: exit 3, each with its record (common/errors.hpp). The record (rank 0 only) follows analysis/record.py's schema, app "peer"."""
+one line on stderr; stopped by --max-iter: exit 4, broken down: exit 3, each with its record (common/errors.hpp). The record (rank 0 only) follows common/record.py's schema, app "peer"."""
 import argparse
 import os
 import sys
@@ -30,7 +30,7 @@ if "PETSC_DIR" not in os.environ:
     os.environ["PETSC_DIR"] = "/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real"
     os.execv(sys.executable, [sys.executable, *sys.argv])
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis import record  # noqa: E402  (standard library only, so /usr/bin/python3 can import it)
+from common import record  # noqa: E402  (standard library only, so /usr/bin/python3 can import it)
 from bench.peers import positive  # noqa: E402  (NumPy is imported inside its functions only)
 
 PCS = {"none": "none", "hypre": "hypre", "gamg": "gamg", "mg": "mg"}

@@ -29,8 +29,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "common"))
-import harness_io  # noqa: E402
+from common import harness_io  # noqa: E402
 from gpukit import cases  # noqa: E402
 
 # options whose values are sizes or files, or (--weights) change no work

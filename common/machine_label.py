@@ -31,8 +31,8 @@ import sys
 import uuid
 from pathlib import Path
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import harness_io  # noqa: E402  (common/, beside this file: the one way to open a harness file)
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the repository or the kit
+from common import harness_io  # noqa: E402  (the one way to open a harness file)
 
 # Names in results/ that are not machines.
 RESERVED = {"paper", "tables", "plots", "report"}

@@ -15,7 +15,7 @@ import tarfile
 import zlib
 from pathlib import PurePosixPath
 
-from analysis.record import loads, validate
+from common.record import loads, validate
 from common import machine_label
 
 # The kit's archive is at most 16 MiB (gpukit/driver.py, ARCHIVE_LIMIT, logs cut to fit); four times that is refused

@@ -28,7 +28,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from analysis.record import loads  # noqa: E402
+from common.record import loads  # noqa: E402
 from common import machine_label  # noqa: E402
 from gpukit.archive_check import Refused, check, key, read_archive, same_gpu  # noqa: E402
 

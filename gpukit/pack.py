@@ -160,7 +160,8 @@ def fill(a, kit):
     write_facts(kit, env)
     for f in sorted((ROOT / "analysis").glob("*.py")):
         copy(f, kit / "analysis" / f.name)
-    copy(ROOT / "common" / "record.schema.json", kit / "common" / "record.schema.json")  # analysis/record.py reads it
+    copy(ROOT / "common" / "record.py", kit / "common" / "record.py")  # the records' writer and reader (analysis/)
+    copy(ROOT / "common" / "record.schema.json", kit / "common" / "record.schema.json")  # common/record.py reads it
     # pytest in the kit: no cache folder inside the kit, temporary files under the output folder (run passes
     # --basetemp), the reasons of skips printed.
     (kit / "pytest.ini").write_text("[pytest]\ntestpaths = tests\npythonpath = .\naddopts = -rs -p no:cacheprovider\n")

@@ -1,5 +1,5 @@
 // The one place that maps a backend to its factory (the table of backends and the checks: config.cpp).
-#include "poisson/backends.hpp"
+#include "poisson/contract/backends.hpp"
 
 #include "common/errors.hpp"
 

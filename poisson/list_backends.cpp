@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "poisson/config.hpp"
+#include "poisson/config/config.hpp"
 
 namespace poisson {
 

@@ -20,9 +20,9 @@
 #include "common/record.hpp"
 #include "common/repetitions.hpp"
 #include "common/timer.hpp"
-#include "poisson/cg.hpp"
-#include "poisson/kernels.hpp"
-#include "poisson/mg.hpp"
+#include "poisson/methods/cg.hpp"
+#include "poisson/contract/kernels.hpp"
+#include "poisson/methods/mg.hpp"
 #include "poisson/verify.hpp"
 
 namespace {

@@ -5,7 +5,7 @@
 #include <cstdlib>
 
 #include "common/errors.hpp"
-#include "poisson/problem.hpp"
+#include "poisson/config/problem.hpp"
 
 namespace poisson {
 

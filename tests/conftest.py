@@ -86,7 +86,7 @@ def every_record_validates(tmp_path_factory):
     validate against common/record.schema.json; one that does not fails the session, named with its file and line."""
     yield
     try:
-        from analysis.record import validate
+        from common.record import validate
         import jsonschema  # noqa: F401  (the project's venv has it; a GPU kit's bare Python may not)
     except ImportError as e:
         print(f"\nconftest: the records were not checked against the schema: {e}")

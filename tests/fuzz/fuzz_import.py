@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT))
 from hypothesis import HealthCheck, Phase, given, settings, strategies as st  # noqa: E402
 from hypothesis.database import DirectoryBasedExampleDatabase  # noqa: E402
 
-from analysis.record import loads, validate  # noqa: E402
+from common.record import loads, validate  # noqa: E402
 from gpukit import archive_check, import_archive  # noqa: E402
 
 LABEL = "fuzz-node"

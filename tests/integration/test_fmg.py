@@ -84,7 +84,7 @@ def test_record_says_method_and_dof_per_s():
     assert rec["params"]["method"] == "cg" and rec["perf"]["dof_per_s"] > 0
 
 
-# Each backend's F-cycle by its own kernels (poisson/mg.hpp): openmp's fused level kernels cycle on x (the finest
+# Each backend's F-cycle by its own kernels (poisson/methods/mg.hpp): openmp's fused level kernels cycle on x (the finest
 # level's transfers 2.5 and cycle from x 6.5, nothing after); serial's separate kernels cycle on the correction z
 # (transfers 5.25 + 3.25, cycle from x 14.5, then w = A z, x += z, r -= w: 7). The record's bytes and bandwidth
 # follow that model: the F-cycle as the first iteration, vectors_per_iteration for each one after it.

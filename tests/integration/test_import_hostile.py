@@ -301,7 +301,7 @@ def test_wrong_types_and_non_finite_numbers_are_refused_with_one_line(tmp_path, 
 def test_the_schema_refuses_non_finite_numbers_and_the_readers_their_tokens(tmp_path):
     import jsonschema
     from analysis import records
-    from analysis.record import DEFINITION, loads, validate
+    from common.record import DEFINITION, loads, validate
     schema = jsonschema.Draft202012Validator(DEFINITION)
     assert schema.is_valid(record(1))
     assert not schema.is_valid(record(1, times_s={"solve": float("inf")}))

@@ -1,7 +1,7 @@
-"""The include rules (issues 36 and 51): every folder of radiosity/ and common/ is a layer, named by its folder, and
-each layer includes only the layers below it. A file's layer is its folder, never its name.
+"""The include rules (issues 36 and 51): every folder of radiosity/, poisson/ and common/ is a layer, named by its
+folder, and each layer includes only the layers below it. A file's layer is its folder, never its name.
 
-    base        common/, radiosity/mesh.hpp: every layer may include them; common/ includes only itself
+    base        common/ (every layer may include it; it includes only itself), radiosity/mesh.hpp (radiosity/'s)
     scene       radiosity/scene/: RRV's scenes read and written, the mesh
     formfactor  radiosity/formfactor/: the hemicube and its references
     dist        radiosity/dist/: how MPI ranks split rows
@@ -19,6 +19,12 @@ each layer includes only the layers below it. A file's layer is its folder, neve
     ffile       radiosity/formfactor/file/: the form-factor file, read into storage/'s matrix
     relight     radiosity/relight/: the light basis and the frames, over the driver
     application radiosity/app/ and radiosity/main.cpp: calls the driver or a method, never a backend or the kernels
+  and bin/poisson, poisson/ (never radiosity/, as radiosity/ never includes poisson/):
+    poisson config    config/: the configuration and its choices, the problem (grid, right-hand side, exact u)
+    poisson contract  contract/: the kernels a backend supplies (kernels.hpp) and the backends' entry points
+    poisson methods   methods/: CG, MG-PCG and full multigrid written once (cg.hpp), the multigrid cycles (mg.hpp)
+    poisson backends  backends/: serial, openmp, mpi, cuda, cublas1, cublas2 and their kernels; never the driver
+    poisson driver    the files of poisson/ itself: the program, the registry, the float64 check
 
 OPEN lists the known breaks not yet fixed, each with its reason; an entry that no longer breaks a rule fails the test
 too, so that the list only shrinks. test_a_planted_wrong_way_include_is_found plants wrong-way includes in a copy of
@@ -28,7 +34,8 @@ import shutil
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-INCLUDE = re.compile(r'^\s*#\s*include\s+"((?:radiosity|common)/[^"]+)"', re.M)
+INCLUDE = re.compile(r'^\s*#\s*include\s+"((?:radiosity|poisson|common)/[^"]+)"', re.M)
+TOPS = ("radiosity", "poisson", "common")
 SOURCES = (".hpp", ".cpp", ".cuh", ".cu", ".h")
 
 # The layers by folder (a path's longest matching folder decides); radiosity/mesh.hpp is base.
@@ -52,8 +59,12 @@ FOLDERS = {
     "radiosity/relight": "relight",
     "radiosity/app": "application",
     "radiosity": "application",  # main.cpp: the program
+    "poisson/config": "poisson config",
+    "poisson/contract": "poisson contract",
+    "poisson/methods": "poisson methods",
+    "poisson/backends": "poisson backends",
+    "poisson": "poisson driver",
 }
-BASE = {"common", "base"}
 SOLVER = ("storage", "config", "core", "host", "contract", "methods", "backends", "driver")
 
 # What each layer may include besides the base, by the included file's layer.
@@ -75,6 +86,12 @@ MAY_INCLUDE = {
     "relight": {"formfactor", "ffile", "storage", "config", "core", "driver", "relight"},
     "application": {"scene", "formfactor", "ffile", "dist", "render", "storage", "config", "core", "methods",
                     "driver", "relight", "application"},
+    "poisson config": {"poisson config"},
+    "poisson contract": {"poisson config", "poisson contract"},
+    "poisson methods": {"poisson config", "poisson contract", "poisson methods"},
+    "poisson backends": {"poisson config", "poisson contract", "poisson methods", "poisson backends"},
+    "poisson driver": {"poisson config", "poisson contract", "poisson methods", "poisson backends",
+                       "poisson driver"},
 }
 
 # Known breaks not yet fixed: (file, included file) -> the reason.
@@ -82,7 +99,7 @@ OPEN = {}
 
 
 def layer(path):
-    """The layer of a file of radiosity/ or common/ (a path relative to the root): its folder's."""
+    """The layer of a file of radiosity/, poisson/ or common/ (a path relative to the root): its folder's."""
     if path == "radiosity/mesh.hpp":
         return "base"
     folder = path.rsplit("/", 1)[0]
@@ -94,8 +111,8 @@ def layer(path):
 
 
 def includes(root):
-    """(file, included file) for every quoted include of radiosity/ and common/, paths relative to root."""
-    for top in ("radiosity", "common"):
+    """(file, included file) for every quoted include of radiosity/, poisson/ and common/, paths relative to root."""
+    for top in TOPS:
         for f in sorted((root / top).rglob("*")):
             if f.suffix in SOURCES and f.is_file():
                 rel = f.relative_to(root).as_posix()
@@ -111,8 +128,8 @@ def violations(root):
         if have is None or want is None:
             out.append((src, inc, f"a file outside the layers ({src if have is None else inc})"))
             continue
-        if want in BASE and not (have == "common" and want == "base"):
-            continue
+        if want == "common" or (want == "base" and have != "common" and not have.startswith("poisson")):
+            continue  # common/ under everything, radiosity/mesh.hpp under radiosity/
         if want != have and want not in MAY_INCLUDE[have]:
             out.append((src, inc, f"{have} includes {want}"))
     return out
@@ -128,7 +145,7 @@ def test_the_tree_keeps_the_include_rules():
 
 
 def test_every_folder_is_a_layer():
-    sources = [f for top in ("radiosity", "common") for f in (ROOT / top).rglob("*")
+    sources = [f for top in TOPS for f in (ROOT / top).rglob("*")
                if f.suffix in SOURCES and f.is_file()]
     outside = sorted({f.relative_to(ROOT).as_posix() for f in sources if layer(f.relative_to(ROOT).as_posix()) is None})
     assert not outside, f"files in no layer (name their folder's layer in FOLDERS): {outside}"
@@ -142,7 +159,7 @@ def plant(root, rel, include):
 
 
 def test_a_planted_wrong_way_include_is_found(tmp_path):
-    for top in ("radiosity", "common"):
+    for top in TOPS:
         shutil.copytree(ROOT / top, tmp_path / top, ignore=shutil.ignore_patterns("scenes", "web", "*.json", "*.xml",
                                                                                    "*.py", "__pycache__"))
     assert [v for v in violations(tmp_path) if (v[0], v[1]) not in OPEN] == []
@@ -159,7 +176,13 @@ def test_a_planted_wrong_way_include_is_found(tmp_path):
                ("radiosity/scene/subdivide.cpp", "radiosity/formfactor/hemicube.hpp"),      # scene -> formfactor
                ("radiosity/formfactor/hemicube.cpp", "radiosity/formfactor/file/file.hpp"),  # formfactor -> ffile
                ("radiosity/relight/frames.cpp", "radiosity/app/commands.hpp"),               # relight -> application
-               ("common/files.cpp", "radiosity/mesh.hpp")]                                   # common -> radiosity
+               ("common/files.cpp", "radiosity/mesh.hpp"),                                   # common -> radiosity
+               ("poisson/backends/serial.cpp", "poisson/verify.hpp"),                        # backend -> driver
+               ("poisson/backends/cuda.cu", "poisson/verify.hpp"),                           # backend -> driver
+               ("poisson/methods/cg.hpp", "poisson/backends/cpu_block.hpp"),                # methods -> backend
+               ("poisson/contract/kernels.hpp", "poisson/methods/mg.hpp"),                  # contract -> methods
+               ("poisson/main.cpp", "radiosity/mesh.hpp"),                                   # poisson -> radiosity
+               ("radiosity/app/solve_run.cpp", "poisson/contract/kernels.hpp")]             # radiosity -> poisson
     for rel, inc in planted:
         plant(tmp_path, rel, inc)
     found = {(s, i) for s, i, _ in violations(tmp_path)}

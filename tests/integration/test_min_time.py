@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from analysis.record import validate
+from common.record import validate
 from conftest import BIN, ROOT, have_mpi, poisson, run
 
 SCENE = ROOT / "radiosity" / "scenes" / "scene1.xml"

@@ -218,7 +218,7 @@ def test_help_lists_backends_and_exits_0():
     assert "Exit status: 0 an answer" in p.stdout and "4 not converged within --max-iter" in p.stdout
 
 
-# --precond mg (poisson/mg.hpp): CG preconditioned by one multigrid V-cycle, every backend against serial.
+# --precond mg (poisson/methods/mg.hpp): CG preconditioned by one multigrid V-cycle, every backend against serial.
 @pytest.fixture(scope="module")
 def serial_mg(tmp_path_factory):
     d = tmp_path_factory.mktemp("serial_mg")

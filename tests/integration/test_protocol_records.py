@@ -123,7 +123,7 @@ def test_reference_records_obey_the_protocol():
 
 
 def test_python_records_count_dirty_as_the_binaries_do(tmp_path):
-    """analysis.record's git_dirty follows the Makefile's GIT_CHANGES: a run that appends to a committed record file
+    """common.record's git_dirty follows the Makefile's GIT_CHANGES: a run that appends to a committed record file
     (results/) leaves the tree clean, a changed or new source file makes it dirty. (The Python peers of a second
     make bench on a machine with committed records were all marked dirty before.)"""
     clone = tmp_path / "clone"
@@ -138,7 +138,7 @@ def test_python_records_count_dirty_as_the_binaries_do(tmp_path):
                    cwd=clone, check=True)
 
     def dirty():
-        p = subprocess.run([sys.executable, "-c", "from analysis import record; "
+        p = subprocess.run([sys.executable, "-c", "from common import record; "
                             "print(record.provenance()['git_dirty'])"], cwd=clone, capture_output=True, text=True)
         assert p.returncode == 0, p.stderr
         return p.stdout.strip()

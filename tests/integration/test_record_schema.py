@@ -9,8 +9,8 @@ import sys
 import jsonschema
 import pytest
 
-from analysis.record import DEFINITION, ENV_KEYS, SCHEMA
-from analysis.record import validate
+from common.record import DEFINITION, ENV_KEYS, SCHEMA
+from common.record import validate
 from conftest import BIN, ROOT, run
 
 SCENE = ROOT / "radiosity" / "scenes" / "scene1.xml"

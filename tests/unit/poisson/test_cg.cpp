@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "common/errors.hpp"
-#include "poisson/cg.hpp"
-#include "poisson/kernels.hpp"
+#include "poisson/methods/cg.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "poisson/cg.hpp"
-#include "poisson/kernels.hpp"
+#include "poisson/methods/cg.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace {
 

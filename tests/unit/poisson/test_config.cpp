@@ -1,4 +1,4 @@
-// poisson/config.hpp and verify.hpp: the names parsed once, the one place a configuration is refused, the table
+// poisson/config/config.hpp and verify.hpp: the names parsed once, the one place a configuration is refused, the table
 // of backends, and the float64 check's bound.
 #include <gtest/gtest.h>
 
@@ -6,8 +6,8 @@
 #include <cstdlib>
 
 #include "common/errors.hpp"
-#include "poisson/config.hpp"
-#include "poisson/problem.hpp"
+#include "poisson/config/config.hpp"
+#include "poisson/config/problem.hpp"
 #include "poisson/verify.hpp"
 
 namespace {

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "common/errors.hpp"
-#include "poisson/cg.hpp"
-#include "poisson/kernels.hpp"
-#include "poisson/mg.hpp"
+#include "poisson/methods/cg.hpp"
+#include "poisson/contract/kernels.hpp"
+#include "poisson/methods/mg.hpp"
 
 namespace {
 

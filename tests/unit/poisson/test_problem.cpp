@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "poisson/problem.hpp"
+#include "poisson/config/problem.hpp"
 
 using poisson::exact_u;
 using poisson::rhs_f;

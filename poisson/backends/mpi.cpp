@@ -23,9 +23,9 @@
 
 #include "common/comm.hpp"
 #include "common/errors.hpp"
-#include "poisson/backends.hpp"
-#include "poisson/cpu_block.hpp"
-#include "poisson/cpu_pcg.hpp"
+#include "poisson/contract/backends.hpp"
+#include "poisson/backends/cpu_block.hpp"
+#include "poisson/backends/cpu_pcg.hpp"
 
 namespace poisson {
 namespace {

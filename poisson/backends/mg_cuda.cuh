@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "common/cuda_check.cuh"
-#include "poisson/mg.hpp"
+#include "poisson/methods/mg.hpp"
 
 namespace poisson {
 

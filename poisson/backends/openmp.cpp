@@ -4,9 +4,9 @@
 
 #include <string>
 
-#include "poisson/backends.hpp"
-#include "poisson/cpu_block.hpp"
-#include "poisson/cpu_pcg.hpp"
+#include "poisson/contract/backends.hpp"
+#include "poisson/backends/cpu_block.hpp"
+#include "poisson/backends/cpu_pcg.hpp"
 
 namespace poisson {
 namespace {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "common/cuda_check.cuh"
-#include "poisson/kernels.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace poisson {
 

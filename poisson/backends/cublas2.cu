@@ -1,7 +1,7 @@
 // The report's "cuBLAS 2" (§3.2): own stencil kernel, every vector operation through cuBLAS (dot, axpy, scal).
 // One iteration: w = Ap (2), p·w (2), axpy x (3), axpy r (3), r·r (1), p = βp (2) then p += r (3): 16 vectors.
-#include "poisson/backends.hpp"
-#include "poisson/gpu_base.cuh"
+#include "poisson/contract/backends.hpp"
+#include "poisson/backends/gpu_base.cuh"
 
 namespace poisson {
 namespace {

@@ -9,9 +9,9 @@
 //   --method fmg: the F-cycle of mg.hpp on the same level kernels, then V-cycles, [w = Az], [x += z, r -= w, r·r].
 #include <memory>
 
-#include "poisson/backends.hpp"
-#include "poisson/gpu_base.cuh"
-#include "poisson/mg_cuda.cuh"
+#include "poisson/contract/backends.hpp"
+#include "poisson/backends/gpu_base.cuh"
+#include "poisson/backends/mg_cuda.cuh"
 
 namespace poisson {
 namespace {

@@ -7,8 +7,8 @@
 
 #include "common/memory.hpp"
 
-#include "poisson/backends.hpp"
-#include "poisson/mg.hpp"
+#include "poisson/contract/backends.hpp"
+#include "poisson/methods/mg.hpp"
 
 namespace poisson {
 namespace {

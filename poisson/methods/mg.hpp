@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-#include "poisson/kernels.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace poisson {
 

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "common/memory.hpp"
-#include "poisson/cpu_block.hpp"
-#include "poisson/mg.hpp"
-#include "poisson/mg_cpu.hpp"
+#include "poisson/backends/cpu_block.hpp"
+#include "poisson/methods/mg.hpp"
+#include "poisson/backends/mg_cpu.hpp"
 
 namespace poisson {
 

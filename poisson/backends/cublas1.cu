@@ -1,7 +1,7 @@
 // The report's "cuBLAS 1" (§3.2): own stencil and axpby kernels, cuBLAS for the dot products only.
 // One iteration: w = Ap (2 vectors), p·w (2), x = x + αp (3), r = r - αw (3), r·r (1), p = r + βp (3): 14.
-#include "poisson/backends.hpp"
-#include "poisson/gpu_base.cuh"
+#include "poisson/contract/backends.hpp"
+#include "poisson/backends/gpu_base.cuh"
 
 namespace poisson {
 namespace {

@@ -9,7 +9,7 @@
 
 #include "common/errors.hpp"
 #include "common/timer.hpp"
-#include "poisson/kernels.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace poisson {
 

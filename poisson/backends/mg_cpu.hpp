@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "common/memory.hpp"
-#include "poisson/cpu_block.hpp"
-#include "poisson/mg.hpp"
-#include "poisson/mg_cpu_rows.hpp"
+#include "poisson/backends/cpu_block.hpp"
+#include "poisson/methods/mg.hpp"
+#include "poisson/backends/mg_cpu_rows.hpp"
 
 namespace poisson {
 

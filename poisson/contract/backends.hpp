@@ -2,7 +2,7 @@
 #pragma once
 #include <memory>
 
-#include "poisson/kernels.hpp"
+#include "poisson/contract/kernels.hpp"
 
 namespace poisson {
 

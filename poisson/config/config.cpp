@@ -1,5 +1,5 @@
 // The names of the choices, the table of backends and the one place a configuration is refused (config.hpp).
-#include "poisson/config.hpp"
+#include "poisson/config/config.hpp"
 
 #include "common/errors.hpp"
 #include "common/launcher.hpp"

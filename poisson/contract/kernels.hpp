@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "poisson/config.hpp"
-#include "poisson/problem.hpp"
+#include "poisson/config/config.hpp"
+#include "poisson/config/problem.hpp"
 
 namespace poisson {
 

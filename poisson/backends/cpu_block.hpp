@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "common/memory.hpp"
-#include "poisson/kernels.hpp"
-#include "poisson/problem.hpp"
+#include "poisson/contract/kernels.hpp"
+#include "poisson/config/problem.hpp"
 
 namespace poisson {
 
