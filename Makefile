@@ -64,7 +64,7 @@ SUITE_common     := common
 SUITE_render     := common render
 SUITE_fuzz_corpus := common scene formfactor
 SUITE_dist       := common dist formfactor
-SUITE_relight    := common scene formfactor solve relight
+SUITE_relight    := common scene formfactor solve ffile dist relight
 SUITE_app        := common scene formfactor solve ffile render app dist relight
 SUITES := $(notdir $(patsubst %/,%,$(wildcard tests/unit/*/)))
 
@@ -80,7 +80,8 @@ RUNNER ?= local
 # studies beyond the report, the Table 4.2 audit (issue 21: 154 solves of room3, about 7 minutes at quick) and
 # relighting (issue 20, about a minute), run with LONG=1, the default of every preset but quick and ci, so that the
 # quick preset fits in 15 minutes on 2 cores (README, "Reproducing on your machine").
-REPORT_EXPERIMENTS := formfactors table41 table42 table43 table44 table45 figure42 accuracy-formfactors \
+REPORT_EXPERIMENTS := formfactors table41 table42 table43 table44 table45 table43-steps32 gpu-float16 table45-overlap \
+                      figure42 accuracy-formfactors \
                       accuracy-tolerance accuracy-precision accuracy-threshold accuracy-hemicube accuracy-mesh extremes \
                       mpi-formfactors mpi-radiosity mpi-large
 LONG_EXPERIMENTS := table42-audit-formfactors table42-audit relight

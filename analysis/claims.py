@@ -162,14 +162,13 @@ def gpu_poisson(preset):
            for n in sorted(set(plain["params.n"])) if len(plain)] if len(plain) else []
     got = [g for g in got if g["n"]]
     out += got or [_gpu_not_run(claim, "cuBLAS 2 over cuBLAS 1", "Table 4.1's cublas1 and cublas2 paired per N")]
-    cpu_cols = lambda at: [c for c in set(at["column"]) if c not in table41.GPU]
     claim = "The GPU outperforms the CPU, except at the smallest N (§4.2, Table 4.1)"
     got = []
     ns = sorted(set(plain["params.n"])) if len(plain) else []
     for n in ns:
         at = plain[plain["params.n"] == n]
-        g = [c for c in table41.GPU if (at["column"] == c).any()]
-        c = cpu_cols(at)
+        g = table41.on_gpu(at)
+        c = sorted(set(at["column"]) - set(g))
         if g and c:
             best_g = min(g, key=lambda x: at[at["column"] == x]["time_s"].median())
             best_c = min(c, key=lambda x: at[at["column"] == x]["time_s"].median())

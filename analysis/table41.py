@@ -9,13 +9,17 @@ import pandas as pd  # noqa: E402
 
 from analysis import settings  # noqa: E402
 from analysis.radiosity_tables import emit, no_gpu_note, threads_note  # noqa: E402
-from analysis.records import (cell, load, machine, no_answer_note, on, paper_table, plots_dir, reference,  # noqa: E402
-                              summarise, writing)
-
-GPU = ("cublas1", "cublas2", "cuda")
-
+from analysis.records import (cell, load, machine, machine_dir, machine_label, no_answer_note, on,  # noqa: E402
+                              paper_table, plots_dir, reference, summarise, writing)
 
 MG = "MG-PCG "
+
+
+def on_gpu(df):
+    """The columns whose records say they ran on a GPU (backend_info.gpu: the device the program found)."""
+    if df.empty or "backend_info.gpu" not in df:
+        return []
+    return sorted(set(df.loc[df["backend_info.gpu"].notna(), "column"]))
 
 
 def column(row):
@@ -26,12 +30,12 @@ def column(row):
 
 
 def column_order(columns):
-    """Plain CG first (p1, p2, ... then openmp, serial and the GPU variants), then the same for MG-PCG."""
+    """Plain CG first (p1, p2, ... then openmp, serial and the other backends by name), then the same for MG-PCG."""
     def key(c):
         mg, base = c.startswith(MG), c[len(MG):] if c.startswith(MG) else c
         if base.startswith("p") and base[1:].isdigit():
             return (mg, 0, int(base[1:]), base)
-        return (mg, 1, ("openmp", "serial", *GPU).index(base) if base in ("openmp", "serial", *GPU) else 99, base)
+        return (mg, 1, ("openmp", "serial").index(base) if base in ("openmp", "serial") else 2, base)
     return sorted(columns, key=key)
 
 
@@ -83,10 +87,14 @@ def _cells(s, columns):
     return cells, meds
 
 
-def not_run(column, cores):
-    if column.startswith("cublas") or column == "cuda":
+def not_run(column, gpu, cores):
+    """Why a column of the report has no number of ours here: the report ran it on its K20 and this machine has no GPU
+    (its machine.json), or it has more ranks than this machine has cores."""
+    if settings.report_suffix(column) == " (K20)" and not gpu:
         return "not run (no GPU)"
-    return f"not run (p > {cores} cores)" if cores else "not run"
+    if column.startswith("p") and column[1:].isdigit() and cores and int(column[1:]) > cores:
+        return f"not run (p > {cores} cores)"
+    return "not run"
 
 
 def build(preset):
@@ -102,6 +110,7 @@ def build(preset):
     paper = paper_table("table41").set_index("n")
     cores = int(plain["provenance.cpus_online"].max()) if "provenance.cpus_online" in plain else None
     cells, meds = _cells(plain_s, set(plain_s["column"]))
+    gpu = (machine_label.read_owner(machine_dir()) or {}).get("gpu")  # machine.json, written by the runner
     extra = [c for c in column_order(set(plain_s["column"])) if c not in PAPER_COLUMNS]
     rows = []
     for n in sorted(set(plain_s["n"]) | set(paper.index)):
@@ -109,7 +118,7 @@ def build(preset):
         for c in PAPER_COLUMNS:
             ran = (n, c) in cells
             row[f"ours {c}{settings.report_suffix(c)}"] = cells[(n, c)] if ran else (
-                not_run(c, cores) if c not in set(plain_s["column"]) else "—")
+                not_run(c, gpu, cores) if c not in set(plain_s["column"]) else "—")
             row[f"report {c}{settings.report_suffix(c)}"] = paper.loc[n, c] if n in paper.index else float("nan")
             if c in set(plain_s["column"]):
                 row[f"ratio {c}"] = meds[(n, c)] / paper.loc[n, c] if ran and n in paper.index else float("nan")

@@ -44,8 +44,8 @@ PHASES = ("probe", "inputs", "tables", "claims", "targets", "memcheck", "claims-
 # has 1.77 times its patches and a row's cost grows with the patches in front of it.
 FF_ESTIMATE_S = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 4, "room2.xml": 12}
 SCENE_ESTIMATE_S = {"scene1.xml": 1, "scene2.xml": 2, "room3.xml": 3, "room2.xml": 4}
-CUBLAS_BACKENDS = ("cublas1", "cublas2", "cublas")
-OVERLAP_AT = (0.2, 0.5, 0.8)  # Table 4.5's d run again with --overlap
+# The GPU's lists beyond the report's lines (slurm/cases/report_cases.py): run after the tables, not in them.
+BEYOND_LISTS = ("table43-steps32", "gpu-float16", "table45-overlap")
 
 
 class Step:
@@ -96,13 +96,14 @@ def needs_of(argv):
         argv = argv[5:]  # compute-sanitizer --tool T --error-exitcode 9 PROGRAM ...
     if not argv:
         return out
-    backend = option(argv, "--backend")
-    if backend in CUBLAS_BACKENDS:
-        out.add("cublas")
-    if Path(argv[0]).name == "solve_tests":
-        out |= {"cublas", "cusparse"}
+    program, backend = Path(argv[0]).name, option(argv, "--backend")
+    if program == "solve_tests":
+        return out | {"cublas", "cusparse"}
+    libraries = set(backend_facts.backends(program).get(backend, {}).get("libraries", ())) \
+        if program in backend_facts.PROGRAMS else set()
+    out |= libraries & {"cublas"}
     # cuSPARSE runs the csr float32 product in float (radiosity/solve/gpu/sparse_device.cuh)
-    if backend in ("cuda", "cublas") and option(argv, "--storage") == "csr" and \
+    if "cusparse" in libraries and option(argv, "--storage") == "csr" and \
             option(argv, "--precision", "float") == "float" and option(argv, "--ff-precision", "float32") == "float32":
         out.add("cusparse")
     return out
@@ -124,24 +125,6 @@ def case_estimate(c):
         rate = BYTES_PER_S if c.is_gpu() else CPU_BYTES_PER_S
         return max(1, round(1 + 1581 * n / 1024 * vectors * 8 * n * n / rate))
     return SCENE_ESTIMATE_S.get(Path(t[2]).name, 1 if "ci-" in c.line else 10)
-
-
-def derived(gpu, preset):
-    """Cases made from the report's lines: Table 4.5 with --overlap at OVERLAP_AT (never at d = 0 and 1, where
-    nothing is copied and --overlap changes nothing: radiosity/solve/gpu/hybrid.cu), Table 4.3 with RRV's 32 fixed
-    steps, and the largest scene's 32 steps on cuda with float16 F (issue 18's target), compressed: the GPU reads
-    16-bit F only there."""
-    out = []
-    for c in gpu:
-        if c.experiment == "table45" and float(option(c.line.split(), "--distribution", "0")) in OVERLAP_AT:
-            out.append(cases.Case("table45-overlap", c.index, c.line + " --overlap", preset))
-        elif c.experiment == "table43" and "--tol 1e-6" in c.line:
-            steps = c.line.replace("--tol 1e-6", "--steps 32")
-            out.append(cases.Case(c.experiment + "-steps32", c.index, steps, preset))
-            if c.backend() == "cuda" and "room2.xml" in c.line:
-                out.append(cases.Case("gpu-float16", c.index, steps.replace(
-                    "--storage dense", "--storage compressed --ff-precision float16"), preset))
-    return out
 
 
 def _n(c):
@@ -221,7 +204,9 @@ def build(kit, tok, sanitizer, preset="paper", budget=BUDGET_S):
         scene = Path(c.argv(tok)[2]).name
         phase["inputs"].append(Step(f"form factors of {scene}", "formfactors", FF_ESTIMATE_S.get(scene, 30),
                                     [Cmd(kit_argv(c))], phase="inputs"))  # CPU work: not recorded
-    gpu = cases.gpu_cases(lists, preset)
+    every = cases.gpu_cases(lists, preset)
+    extra = [c for c in every if c.experiment in BEYOND_LISTS]
+    gpu = [c for c in every if c not in extra]
     n_max = max((_n(c) for c in gpu if c.experiment == "table41"), default=0)
     large = [c for c in gpu if c.experiment == "table41" and _plain(c) and _n(c) == n_max]
     beyond = [c for c in gpu if "--fused" in c.line or not _plain(c)]  # ours, beyond the report's columns
@@ -229,9 +214,9 @@ def build(kit, tok, sanitizer, preset="paper", budget=BUDGET_S):
     order = {"table43": 0, "table44": 1, "table45": 2, "table41": 3}
     table_cases.sort(key=lambda c: (order.get(c.experiment, 5), _n(c), c.experiment, c.index))
     phase["tables"] = [case_step(c, "tables") for c in table_cases]
-    extra = derived(gpu, preset)
     target = [c for c in large if c.backend() == "cuda"]
-    scene4 = [c for c in extra if c.experiment in ("table43-steps32", "gpu-float16") and "room2.xml" in c.line]
+    scene4 = sorted((c for c in extra if c.experiment in ("table43-steps32", "gpu-float16") and "room2.xml" in c.line),
+                    key=lambda c: BEYOND_LISTS.index(c.experiment))
     phase["targets"] = [case_step(c, "targets") for c in target + scene4]
     phase["large"] = [case_step(c, "large") for c in large if c not in target]
     memcheck, shared, initcheck = plan_checks.sanitizer_runs(kit, tok, preset)

@@ -29,6 +29,7 @@ nlohmann::json backends_json() {
     list.push_back({{"name", b.name()},
                     {"summary", b.summary},
                     {"gpu", b.gpu},
+                    {"libraries", b.cublas ? nlohmann::json{"cublas"} : nlohmann::json::array()},
                     {"built", b.built},
                     {"why_not", b.why_not},
                     {"variants", names(variants)},

@@ -16,6 +16,7 @@
 
 #include "common/memory.hpp"
 #include "poisson/contract/kernels.hpp"
+#include "poisson/contract/stencil.hpp"
 #include "poisson/config/problem.hpp"
 
 namespace poisson {
@@ -106,7 +107,7 @@ class CpuBlock {
       T* w = row(w_.get(), jl);
 #pragma omp simd reduction(+ : pw)
       for (long c = 1; c <= n_; ++c) {
-        const T v = 4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c];
+        const T v = five_point_rows(pc, pu, pd, c);
         w[c] = v;
         pw += static_cast<double>(pc[c]) * v;
       }
@@ -193,7 +194,7 @@ class CpuBlock {
       const T *xc = row(x_.get(), jl), *xu = row(x_.get(), jl - 1), *xd = row(x_.get(), jl + 1);
       const T* b = row(b_.get(), jl);
       for (long c = 1; c <= n_; ++c) {
-        const double ax = 4.0 * xc[c] - xc[c - 1] - xc[c + 1] - xu[c] - xd[c];
+        const double ax = five_point<double>(4.0, xc[c], xc[c - 1], xc[c + 1], xu[c], xd[c]);
         const double d = b[c] - ax;
         s += d * d;
       }
@@ -236,7 +237,7 @@ class CpuBlock {
     double s = 0;
 #pragma omp simd reduction(+ : s)
     for (long c = 1; c <= n_; ++c)
-      s += static_cast<double>(u[c]) * static_cast<double>(4 * u[c] - u[c - 1] - u[c + 1] - up[c] - dn[c]);
+      s += static_cast<double>(u[c]) * static_cast<double>(five_point_rows(u, up, dn, c));
     return s;
   }
 
@@ -293,7 +294,7 @@ class CpuBlock {
           double sum = 0;
 #pragma omp simd reduction(+ : sum)
           for (long c = 1; c <= n_; ++c) {
-            const T v = r[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c]);
+            const T v = r[c] - a * five_point_rows(pc, pu, pd, c);
             rn[c] = v;
             r[c] = v;
             sum += static_cast<double>(v) * v;
@@ -302,7 +303,7 @@ class CpuBlock {
         } else {
           const T* __restrict ro = old_r(q);
 #pragma omp simd
-          for (long c = 1; c <= n_; ++c) rn[c] = ro[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c]);
+          for (long c = 1; c <= n_; ++c) rn[c] = ro[c] - a * five_point_rows(pc, pu, pd, c);
         }
       }
       // r·Ar of row z = y - 2, from the ring of new r.
@@ -334,12 +335,12 @@ class CpuBlock {
       pk[c] = v;
       p[c] = v;
       x[c] += a * v;
-      const T w = rq[c] - a * (4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - v);
+      const T w = rq[c] - a * five_point(T(4), pc[c], pc[c - 1], pc[c + 1], pu[c], v);
       rn[c] = w;
       rq[c] = w;
       s_rr += static_cast<double>(w) * w;
       const T u = rz[c];
-      s_rar += static_cast<double>(u) * static_cast<double>(4 * u - rz[c - 1] - rz[c + 1] - rzu[c] - w);
+      s_rar += static_cast<double>(u) * static_cast<double>(five_point(T(4), u, rz[c - 1], rz[c + 1], rzu[c], w));
     }
     rr += s_rr;
     rar += s_rar;

@@ -11,6 +11,7 @@
 
 #include "common/memory.hpp"
 #include "poisson/backends/cpu_block.hpp"
+#include "poisson/contract/stencil.hpp"
 #include "poisson/methods/mg.hpp"
 #include "poisson/backends/mg_cpu.hpp"
 
@@ -100,7 +101,7 @@ class CpuPcg {
         double sum = 0;
 #pragma omp simd reduction(+ : sum)
         for (long c = 1; c <= n; ++c) {
-          const T v = 4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c];
+          const T v = five_point_rows(pc, pu, pd, c);
           sum += static_cast<double>(pc[c]) * v;
         }
         pw += sum;
@@ -124,7 +125,7 @@ class CpuPcg {
 #pragma omp simd reduction(+ : sum)
       for (long c = 1; c <= n; ++c) {
         x[c] += a * pc[c];
-        const T w = 4 * pc[c] - pc[c - 1] - pc[c + 1] - pu[c] - pd[c];
+        const T w = five_point_rows(pc, pu, pd, c);
         const T rn = r[c] - a * w;
         r[c] = rn;
         sum += static_cast<double>(rn) * rn;

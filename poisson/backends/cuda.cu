@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "poisson/contract/backends.hpp"
+#include "poisson/contract/stencil.hpp"
 #include "poisson/backends/gpu_base.cuh"
 #include "poisson/backends/mg_cuda.cuh"
 
@@ -46,7 +47,7 @@ __global__ void __launch_bounds__(kBlock) calc_w_kernel(long n, long s, const T*
   double acc = 0;
   FOR_INTERIOR(n, s, k, idx) {
     const T pc = p[idx];
-    const T v = 4 * pc - p[idx - 1] - p[idx + 1] - p[idx - s] - p[idx + s];
+    const T v = five_point(T(4), pc, p[idx - 1], p[idx + 1], p[idx - s], p[idx + s]);
     w[idx] = v;
     acc += static_cast<double>(pc) * v;
   }
@@ -125,7 +126,7 @@ __global__ void __launch_bounds__(kSweepThreads)
       T rn = 0;
       if (mid_col && q >= 0 && q < n) {
         const T* pc = ring_p[(q + 3) % 3];
-        const T ap = 4 * pc[t] - pc[t - 1] - pc[t + 1] - ring_p[(q + 2) % 3][t] - ring_p[(q + 4) % 3][t];
+        const T ap = five_point_rows(pc, ring_p[(q + 2) % 3], ring_p[(q + 4) % 3], t);
         rn = r_above - alpha * ap;
         if (own_col && q >= y0 && q < y1) {
           r_new[idx - s] = rn;
@@ -141,7 +142,7 @@ __global__ void __launch_bounds__(kSweepThreads)
       const T* rc = ring_r[(z + 3) % 3];
       const T u = rc[t];
       rar += static_cast<double>(u) *
-             (4 * u - rc[t - 1] - rc[t + 1] - ring_r[(z + 2) % 3][t] - ring_r[(z + 4) % 3][t]);
+             five_point_rows(rc, ring_r[(z + 2) % 3], ring_r[(z + 4) % 3], t);
     }
   }
   block_sum_into(rr, dots);

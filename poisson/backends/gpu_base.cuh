@@ -10,6 +10,7 @@
 
 #include "common/cuda_check.cuh"
 #include "poisson/contract/kernels.hpp"
+#include "poisson/contract/stencil.hpp"
 
 namespace poisson {
 
@@ -21,7 +22,7 @@ __global__ void stencil_kernel(long n, long s, const T* __restrict__ in, T* __re
   const long k = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x;
   if (k >= n * n) return;
   const long idx = (k / n + 1) * s + (k % n) + 1;
-  out[idx] = 4 * in[idx] - in[idx - 1] - in[idx + 1] - in[idx - s] - in[idx + s];
+  out[idx] = five_point_at(in, s, idx);
 }
 
 // Base is Kernels<T>, or OneSweepKernels<T> for a backend that also runs the one-sweep variant.
@@ -67,7 +68,7 @@ class GpuBase : public Base {
     for (long j = 1; j <= n_; ++j)
       for (long i = 1; i <= n_; ++i) {
         const long k = j * s_ + i;
-        const double ax = 4.0 * x[k] - x[k - 1] - x[k + 1] - x[k - s_] - x[k + s_];
+        const double ax = five_point<double>(4.0, x[k], x[k - 1], x[k + 1], x[k - s_], x[k + s_]);
         const double d = host_b_[k] - ax;
         sum += d * d;
       }

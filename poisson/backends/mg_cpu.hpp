@@ -105,36 +105,16 @@ class CpuMg final : public MgLevels {
     CpuLevel<T>& f = lv_[l];
     CpuLevel<T>& c = lv_[l + 1];
     if (!f.rows.whole) comm_->halo(f, f.x);
-    const long n = f.rows.n;
 #pragma omp parallel for schedule(static) if (f.threaded())
-    for (long jl = 0; jl < f.rows.ny; ++jl) {
-      const T* __restrict x = f.row(f.x, jl);
-      const T* __restrict up = f.row(f.x, jl - 1);
-      const T* __restrict dn = f.row(f.x, jl + 1);
-      const T* __restrict b = f.row(f.b, jl);
-      T* __restrict r = f.row(f.r, jl);
-      const T d = 4 + (f.rows.y0 + jl == n - 1 ? f.e : T(0));
-#pragma omp simd
-      for (long k = 1; k <= n; ++k) r[k] = b[k] - (d * x[k] - x[k - 1] - x[k + 1] - up[k] - dn[k]);
-      r[n] -= f.e * x[n];
-    }
+    for (long jl = 0; jl < f.rows.ny; ++jl) mg_rows::residual_row(f, jl, f.row(f.r, jl));
     if (!f.rows.whole) comm_->halo(f, f.r);
     // Coarse row J sits on fine row 2J + 1: this block makes the coarse rows whose fine row it holds.
-    const long j0 = f.rows.y0 / 2, j1 = (f.rows.y0 + f.rows.ny) / 2, nc = c.rows.n;
+    const long j0 = f.rows.y0 / 2, j1 = (f.rows.y0 + f.rows.ny) / 2;
 #pragma omp parallel for schedule(static) if (f.threaded())
     for (long J = j0; J < j1; ++J) {
       const long jf = 2 * J + 1 - f.rows.y0;  // local fine row
-      const T* __restrict r0 = f.row(f.r, jf - 1);
-      const T* __restrict r1 = f.row(f.r, jf);
-      const T* __restrict r2 = f.row(f.r, jf + 1);
-      T* __restrict bc = c.row(c.b, J - c.rows.y0);
-      for (long C = 1; C <= nc; ++C) {  // padded coarse column C sits on padded fine column 2C
-        const long k = 2 * C;
-        const T t0 = T(0.5) * r0[k - 1] + r1[k - 1] + T(0.5) * r2[k - 1];
-        const T t1 = T(0.5) * r0[k] + r1[k] + T(0.5) * r2[k];
-        const T t2 = T(0.5) * r0[k + 1] + r1[k + 1] + T(0.5) * r2[k + 1];
-        bc[C] = T(0.5) * t0 + t1 + T(0.5) * t2;
-      }
+      mg_rows::restrict_row(f.row(f.r, jf - 1), f.row(f.r, jf), f.row(f.r, jf + 1), c.row(c.b, J - c.rows.y0),
+                            c.rows.n);
     }
     if (c.rows.whole && !f.rows.whole) comm_->gather_b(c);
   }

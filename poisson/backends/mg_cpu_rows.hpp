@@ -4,6 +4,7 @@
 // red points of a fine row, and a row's b·x. Each level is a block of rows [y0, y0 + ny) of its n×n grid, stored
 // with one ghost row above and below and one zero ghost column left and right.
 #pragma once
+#include "poisson/contract/stencil.hpp"
 
 namespace poisson {
 
@@ -52,8 +53,8 @@ inline void colour_row(CpuLevel<T>& lv, long jl, int colour) {
   const T* __restrict b = lv.row(lv.b, jl);
   const T d = 4 + (lv.rows.y0 + jl == n - 1 ? lv.e : T(0)), inv = 1 / d;
   long c = 1 + ((colour + lv.rows.y0 + jl) & 1);
-  for (; c < n; c += 2) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) * inv;
-  if (c == n) x[c] = (b[c] + x[c - 1] + x[c + 1] + up[c] + dn[c]) / (d + lv.e);
+  for (; c < n; c += 2) x[c] = plus_neighbours(b[c], x[c - 1], x[c + 1], up[c], dn[c]) * inv;
+  if (c == n) x[c] = plus_neighbours(b[c], x[c - 1], x[c + 1], up[c], dn[c]) / (d + lv.e);
 }
 
 // The red points of local row jl from x = 0: x = b / a (the same value as colour_row with zero neighbours).
@@ -91,7 +92,7 @@ template <class T>
 inline void residual_row(const CpuLevel<T>& f, long jl, T* __restrict r) {
   const auto [n, x, up, dn, b, d] = stencil_rows(f, jl);  // (the loops' omp simd: no aliasing to rule out)
 #pragma omp simd
-  for (long k = 1; k <= n; ++k) r[k] = b[k] - (d * x[k] - x[k - 1] - x[k + 1] - up[k] - dn[k]);
+  for (long k = 1; k <= n; ++k) r[k] = b[k] - five_point(d, x[k], x[k - 1], x[k + 1], up[k], dn[k]);
   r[n] -= f.e * x[n];
   r[0] = r[n + 1] = 0;
 }
@@ -103,10 +104,10 @@ inline double residual_norm_row(const CpuLevel<T>& f, long jl) {
   double s = 0;
 #pragma omp simd reduction(+ : s)
   for (long k = 1; k < n; ++k) {
-    const double r = b[k] - (d * x[k] - x[k - 1] - x[k + 1] - up[k] - dn[k]);
+    const double r = b[k] - five_point(d, x[k], x[k - 1], x[k + 1], up[k], dn[k]);
     s += r * r;
   }
-  const double r = b[n] - ((d + f.e) * x[n] - x[n - 1] - x[n + 1] - up[n] - dn[n]);
+  const double r = b[n] - five_point(T(d + f.e), x[n], x[n - 1], x[n + 1], up[n], dn[n]);
   return s + r * r;
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/cuda_check.cuh"
+#include "poisson/contract/stencil.hpp"
 #include "poisson/methods/mg.hpp"
 
 namespace poisson {
@@ -25,7 +26,7 @@ __global__ void mg_smooth_kernel(long n, long s, int colour, T e, T* __restrict_
   if (i >= n) return;
   const long idx = (j + 1) * s + i + 1;
   const T a = 4 + (j == n - 1 ? e : T(0)) + (i == n - 1 ? e : T(0));
-  x[idx] = (b[idx] + x[idx - 1] + x[idx + 1] + x[idx - s] + x[idx + s]) / a;
+  x[idx] = plus_neighbours(b[idx], x[idx - 1], x[idx + 1], x[idx - s], x[idx + s]) / a;
 }
 
 template <class T>
@@ -35,7 +36,7 @@ __global__ void mg_residual_kernel(long n, long s, T e, const T* __restrict__ x,
   if (k >= n * n) return;
   const long j = k / n, i = k % n, idx = (j + 1) * s + i + 1;
   const T a = 4 + (j == n - 1 ? e : T(0)) + (i == n - 1 ? e : T(0));
-  r[idx] = b[idx] - (a * x[idx] - x[idx - 1] - x[idx + 1] - x[idx - s] - x[idx + s]);
+  r[idx] = b[idx] - five_point(a, x[idx], x[idx - 1], x[idx + 1], x[idx - s], x[idx + s]);
 }
 
 // One thread per coarse point: b_c = Pᵀ r; padded coarse (C, R) sits on padded fine (2C, 2R).

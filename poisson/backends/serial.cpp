@@ -8,10 +8,23 @@
 #include "common/memory.hpp"
 
 #include "poisson/contract/backends.hpp"
+#include "poisson/contract/stencil.hpp"
 #include "poisson/methods/mg.hpp"
 
 namespace poisson {
 namespace {
+
+// v at point (i, j) of an unpadded n×n array, zero outside the grid (u = 0 on the boundary).
+template <class T>
+T at(const std::vector<T>& v, long n, long i, long j) {
+  return i >= 0 && i < n && j >= 0 && j < n ? v[j * n + i] : T(0);
+}
+
+// (A v) at point (i, j) with diagonal d: the stencil of stencil.hpp, neighbours outside the grid zero.
+template <class T>
+T stencil_at(const std::vector<T>& v, long n, long i, long j, T d) {
+  return five_point(d, v[j * n + i], at(v, n, i - 1, j), at(v, n, i + 1, j), at(v, n, i, j - 1), at(v, n, i, j + 1));
+}
 
 // The reference level kernels of mg.hpp: plain loops over unpadded n×n arrays, neighbours outside the grid
 // tested for and taken as zero. Level 0's x is z, its b is r and its residual w (free while z is made).
@@ -41,14 +54,17 @@ class SerialMg final : public MgLevels {
     const std::vector<T>& b = *lv_[l].b;
     for (long j = 0; j < n; ++j)
       for (long i = 0; i < n; ++i)
-        if ((i + j) % 2 == colour) x[j * n + i] = (b[j * n + i] + neighbours(x, n, i, j)) / diag(lv_[l], i, j);
+        if ((i + j) % 2 == colour)
+          x[j * n + i] = plus_neighbours(b[j * n + i], at(x, n, i - 1, j), at(x, n, i + 1, j), at(x, n, i, j - 1),
+                                         at(x, n, i, j + 1)) /
+                         diag(lv_[l], i, j);
   }
   void restrict_residual(int l) override {
     const long n = lv_[l].n, nc = lv_[l + 1].n;
     const std::vector<T>&x = *lv_[l].x, &b = *lv_[l].b;
     std::vector<T>& r = *lv_[l].r;
     for (long j = 0; j < n; ++j)
-      for (long i = 0; i < n; ++i) r[j * n + i] = b[j * n + i] - (diag(lv_[l], i, j) * x[j * n + i] - neighbours(x, n, i, j));
+      for (long i = 0; i < n; ++i) r[j * n + i] = b[j * n + i] - stencil_at(x, n, i, j, diag(lv_[l], i, j));
     std::vector<T>& bc = *lv_[l + 1].b;
     for (long J = 0; J < nc; ++J)
       for (long I = 0; I < nc; ++I) {
@@ -86,12 +102,6 @@ class SerialMg final : public MgLevels {
     return T(4 + (i == lv.n - 1 ? lv.e : 0) + (j == lv.n - 1 ? lv.e : 0));
   }
   static T weight(long d) { return d == 0 ? T(1) : T(0.5); }
-  static T at(const std::vector<T>& v, long n, long i, long j) {
-    return i >= 0 && i < n && j >= 0 && j < n ? v[j * n + i] : T(0);
-  }
-  static T neighbours(const std::vector<T>& v, long n, long i, long j) {
-    return at(v, n, i - 1, j) + at(v, n, i + 1, j) + at(v, n, i, j - 1) + at(v, n, i, j + 1);
-  }
   std::vector<Level> lv_;
 };
 
@@ -224,14 +234,7 @@ class Serial final : public Kernels<T>, public Preconditioned {
   // out = A in, with u = 0 outside the grid.
   void apply(const std::vector<T>& in, std::vector<T>& out) const {
     for (long j = 0; j < n_; ++j)
-      for (long i = 0; i < n_; ++i) {
-        T s = 4 * in[j * n_ + i];
-        if (i > 0) s -= in[j * n_ + i - 1];
-        if (i < n_ - 1) s -= in[j * n_ + i + 1];
-        if (j > 0) s -= in[(j - 1) * n_ + i];
-        if (j < n_ - 1) s -= in[(j + 1) * n_ + i];
-        out[j * n_ + i] = s;
-      }
+      for (long i = 0; i < n_; ++i) out[j * n_ + i] = stencil_at(in, n_, i, j, T(4));
   }
 
   Grid g_;

@@ -76,6 +76,7 @@ struct BackendEntry {
   bool gpu = false;         // runs on an NVIDIA GPU (CUDA)
   bool onesweep = false;    // runs --variant onesweep (and uses it by default in double)
   bool multigrid = false;   // runs --precond mg and --method fmg
+  bool cublas = false;      // calls cuBLAS (--list-backends: "libraries"; the GPU kit skips it where cuBLAS is not)
   int vectors_classic = 0;  // vectors per plain CG iteration, variant classic
   int vectors_onesweep = 0; // and variant onesweep (0: the backend has no onesweep)
   bool built = false;       // compiled into this binary

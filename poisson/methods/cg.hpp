@@ -40,6 +40,17 @@ struct CgResult {
 using CgProgress = std::function<void(long, double)>;
 
 namespace detail {
+// The start of run_cg, run_pcg and run_fmg: x = 0, r = p = b; the init time; converged at once where b = 0 (x = 0 is
+// exact). Returns r₀·r₀; t restarts for the solve.
+template <class T>
+double start(Kernels<T>& k, CgResult& res, hpcgi::Timer& t) {
+  const double rr0 = k.init();
+  res.init_s = t.seconds();
+  t.reset();
+  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
+  return rr0;
+}
+
 // The checks inside the loops of run_cg and run_pcg: false, with the reason in res, when p·Ap is not finite and
 // positive, or r·r is not finite.
 inline bool pw_ok(CgResult& res, double pw, long it) {
@@ -82,12 +93,8 @@ CgResult run_cg(Kernels<T>& k, double tol, long max_iter,
                 const CgProgress& progress = nullptr) {
   CgResult res;
   hpcgi::Timer t;
-  double rr = k.init();
-  const double rr0 = rr;
-  res.init_s = t.seconds();
-  t.reset();
-  res.status = Status::max_iter;
-  if (rr0 == 0.0) res.status = Status::converged;  // b = 0: x = 0 is exact
+  const double rr0 = detail::start(k, res, t);
+  double rr = rr0;
   for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     const double pw = k.calc_w();
     if (!detail::pw_ok(res, pw, it)) break;
@@ -153,10 +160,7 @@ template <class T>
 CgResult run_pcg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, const CgProgress& progress = nullptr) {
   CgResult res;
   hpcgi::Timer t;
-  const double rr0 = k.init();
-  res.init_s = t.seconds();
-  t.reset();
-  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
+  const double rr0 = detail::start(k, res, t);
   // fused: p = z + βp is made with p·Ap (calc_p_pw) at the top of the iteration, not after the V-cycle.
   const bool fused = m.fused_updates();
   double rz = 0, beta = 0;
@@ -194,10 +198,7 @@ template <class T>
 CgResult run_fmg(Kernels<T>& k, Preconditioned& m, double tol, long max_iter, const CgProgress& progress = nullptr) {
   CgResult res;
   hpcgi::Timer t;
-  const double rr0 = k.init();
-  res.init_s = t.seconds();
-  t.reset();
-  res.status = rr0 == 0.0 ? Status::converged : Status::max_iter;
+  const double rr0 = detail::start(k, res, t);
   for (long it = 1; it <= max_iter && res.status != Status::converged; ++it) {
     const double rr = m.solve_cycle(it == 1);
     res.iterations = it;

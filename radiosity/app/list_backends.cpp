@@ -16,6 +16,14 @@ nlohmann::json names(const std::vector<E>& v) {
   for (E e : v) a.push_back(to_string(e));
   return a;
 }
+
+// The CUDA libraries a backend calls (in some configuration: cuSPARSE for csr float32 F only).
+nlohmann::json libraries(const SolveBackend& b) {
+  nlohmann::json a = nlohmann::json::array();
+  if (b.cublas) a.push_back("cublas");
+  if (b.cusparse) a.push_back("cusparse");
+  return a;
+}
 }  // namespace
 
 std::string describe_backends(bool json) {
@@ -24,6 +32,7 @@ std::string describe_backends(bool json) {
     list.push_back({{"name", b.name},
                     {"summary", b.summary},
                     {"gpu", b.gpu},
+                    {"libraries", libraries(b)},
                     {"built", b.built},
                     {"why_not", b.why_not},
                     {"methods", names(b.methods)},

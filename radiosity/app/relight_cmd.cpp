@@ -148,8 +148,8 @@ int run_relight(const RelightArgs& a) {
   nlohmann::json rec = hpcgi::record::make("radiosity");
   rec["params"] = {{"command", "relight"},       {"scene", a.scene},
                    {"patches", in.m.size()},     {"divide", a.load.divide},
-                   {"ff_file", a.ff},            {"hemicube", in.ff_params.resolution},
-                   {"weights", to_string(in.ff_params.weights)},
+                   {"ff_file", a.ff},            {"hemicube", in.ff_file.info().params.resolution},
+                   {"weights", to_string(in.ff_file.info().params.weights)},
                    {"ff_precision", a.ff_precision},
                    {"storage", to_string(in.storage)},
                    {"storage_requested", a.storage}};
@@ -168,7 +168,7 @@ int run_relight(const RelightArgs& a) {
   bopt.threads = a.threads;
   bopt.backend = a.cfg.backend;
   bool loaded = false;
-  const LightBasis basis = load_or_solve_basis(a.basis, in.m, a.ff, in.basis_view, in.lights, bopt, &loaded);
+  const LightBasis basis = load_or_solve_basis(a.basis, in.m, in.ff_file, in.basis_view, in.lights, bopt, &loaded);
   // Backend mpi: the ranks solved the basis together; rank 0 alone serves the frames (from the basis: no solve)
   // and writes the record.
   if (!hpcgi::comm::root()) return 0;

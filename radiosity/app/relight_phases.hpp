@@ -33,8 +33,8 @@ struct RelightInputs {
   std::vector<relight::NamedEntity> named, lights;
   std::vector<relight::Frame> frames;  // every frame read and checked before anything is computed
   Camera cam;
-  std::unique_ptr<FormFactorMatrix> file_matrix;  // --ff's dense float32 values, as read
-  HemicubeParams ff_params;                       // --ff's hemicube
+  FormFactorFile ff_file;                         // --ff, checked against m
+  std::unique_ptr<FormFactorMatrix> file_matrix;  // its dense float32 values, as read
   // F in --storage: the reflectivity frames' (and --bench-rhs's) in --ff-precision, the light basis's in float32;
   // none where that is the file's dense float32. A sparse one holds the rows of every patch the scene or a frame
   // makes reflective (reflective_somewhere).

@@ -126,9 +126,8 @@ void load_relight(const RelightArgs& a, const RelightPlan& p, RelightInputs& in)
                              4 * n2 + (p.values != FFValues::float32 || p.storage != FFStorage::dense ? 4 * n2 : 0) +
                                  (blocks ? 4 * n2 : 0));
   hpcgi::Timer t;
-  const FormFactorFile file = FormFactorFile::open(a.ff).checked(in.m).require_dense();
-  in.file_matrix = std::make_unique<FormFactorMatrix>(read_form_factors(file, in.m));
-  in.ff_params = file.info().params;
+  in.ff_file = FormFactorFile::open(a.ff).checked(in.m).require_dense();
+  in.file_matrix = std::make_unique<FormFactorMatrix>(read_form_factors(in.ff_file, in.m));
   in.ff_load_s = t.seconds();
   build_relight_matrices(a, p, in);
 }

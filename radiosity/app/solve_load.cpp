@@ -120,32 +120,6 @@ void read_values(const SolvePlan& p, Loaded& L) {
 // The file's dense float32 values (this process's rows), or null for a sparse file.
 const float* file_values(const Loaded& L) { return L.sparse_file ? nullptr : dense_float32(L.sys); }
 
-// The storage the run's form factors take, from what the backend reads and what is kept; sets L.kept, *dropped
-// (the threshold dropped some), *bridges (compressed's) and *runs (the runs storage's).
-FFStorage choose_storage(const SolvePlan& p, Loaded& L, bool* dropped, size_t* bridges,
-                         RunCounts* runs) {
-  const System& sys = L.sys;
-  // Counted over this process's rows (on MPI ranks: summed over the ranks).
-  StorageCounts c;
-  c.n = L.n;
-  if (!L.sparse_file)
-    c = count_storages(file_values(L), L.n, sys.reflectivity, p.threshold, readable_storages(*p.backend, p.values),
-                       L.block.begin, L.block.end);
-  uint64_t counts[6] = {c.kept, c.bridges, c.rows_needed, c.runs.runs, c.runs.entries,
-                        !L.sparse_file && p.threshold > 0 ? count_kept(file_values(L), L.n, sys.reflectivity, 0, L.block.begin,
-                                                                       L.block.end)
-                                                          : c.kept};
-  hpcgi::comm::sum(counts, 6);
-  L.kept = L.sparse_file ? L.matrix->kept() : size_t(counts[0]);
-  *dropped = !L.sparse_file && p.threshold > 0 && L.kept != size_t(counts[5]);
-  *bridges = L.sparse_file ? L.matrix->bridges() : size_t(counts[1]);
-  *runs = L.sparse_file ? L.matrix->runs() : RunCounts{size_t(counts[3]), size_t(counts[4])};
-  if (L.sparse_file) return L.matrix->view().storage;
-  if (p.storage) return *p.storage;
-  return fewest_bytes_storage(readable_storages(*p.backend, p.values), p.values,
-                              StorageCounts{L.n, L.kept, *bridges, size_t(counts[2]), *runs});
-}
-
 // The dense file's values in the run's storage and precision (the dense values are given back).
 void convert_dense(const SolvePlan& p, Loaded& L, size_t bridges, const RunCounts& runs) {
   const double bytes = ff_storage_bytes(L.storage, p.values, L.n, L.kept, bridges, runs);
@@ -171,29 +145,6 @@ void convert_dense(const SolvePlan& p, Loaded& L, size_t bridges, const RunCount
 }
 
 #ifdef HAVE_MPI
-// Each row's entries in opt's storage (its kept values, and compressed's bridges; runs: its stored values) at i and
-// its runs (runs storage) at n + i, counted in this rank's dense block and summed over the ranks.
-std::vector<uint64_t> row_counts(const Loaded& L, const FFMatrixOptions& opt) {
-  const size_t n = L.n;
-  std::vector<uint64_t> counts(2 * n, 0);
-  const float* F = file_values(L);
-  const auto& rho = L.sys.reflectivity;
-#pragma omp parallel for schedule(dynamic, 64)
-  for (size_t i = L.block.begin; i < L.block.end; ++i) {
-    const float* Fi = F + (i - L.block.begin) * n;
-    if (opt.storage == FFStorage::runs) {
-      const RunCounts r = count_runs(Fi, n, rho, opt, i, i + 1);
-      counts[i] = r.entries;
-      counts[n + i] = r.runs;
-    } else {
-      counts[i] = count_kept(Fi, n, rho, opt.threshold, i, i + 1) +
-                  (opt.storage == FFStorage::compressed ? count_bridges(Fi, n, rho, opt.threshold, i, i + 1) : 0);
-    }
-  }
-  hpcgi::comm::sum(counts.data(), int(2 * n));
-  return counts;
-}
-
 // A csr, compressed or runs rank's rows balanced by their cost in the product (ff_matrix.hpp's: its entries and
 // kRowCost; runs: and kRunCost a run, ff_matrix.hpp), not by count: the rows are counted in the blocks of equal
 // count that were read, the ranks' counts summed, the blocks split again, and each rank reads its new block (the
@@ -201,9 +152,9 @@ std::vector<uint64_t> row_counts(const Loaded& L, const FFMatrixOptions& opt) {
 // blocks: the dense rows a rank reads and its matrix (ff_storage_bytes) are held at once while it is built.
 void balance_rows_by_cost(const SolvePlan& p, Loaded& L, const FFMatrixOptions& opt) {
   const size_t n = L.n;
-  const std::vector<uint64_t> counts = row_counts(L, opt);
-  std::vector<uint64_t> work(n);
-  for (size_t i = 0; i < n; ++i) work[i] = counts[i] + kRunCost * counts[n + i] + kRowCost;
+  const std::vector<uint64_t> counts =
+      row_entries(file_values(L), n, L.sys.reflectivity, opt, L.block.begin, L.block.end);
+  const std::vector<uint64_t> work = row_costs(counts);
   const NeedsAt needs = [&](int ranks) {
     const std::vector<size_t> b = dist::split_by_work(work, ranks);
     std::vector<RankNeed> out;
@@ -260,7 +211,14 @@ void build_rank_matrix(const SolvePlan& p, Loaded& L) {
 // file's values as read.
 void choose(const SolvePlan& p, Loaded& L) {
   hpcgi::Timer t;
-  L.storage = choose_storage(p, L, &L.dropped, &L.bridges, &L.runs);
+  const StorageChoice c = L.sparse_file ? stored_storage(*L.matrix)
+                                        : choose_storage(file_values(L), L.n, L.sys.reflectivity, p.threshold,
+                                                         *p.backend, p.values, p.storage, L.block.begin, L.block.end);
+  L.storage = c.storage;
+  L.kept = c.kept;
+  L.dropped = c.dropped;
+  L.bridges = c.bridges;
+  L.runs = c.runs;
   L.same_matrix = L.sparse_file || (p.values == FFValues::float32 && !L.dropped);
   L.choose_s = t.seconds();
 }

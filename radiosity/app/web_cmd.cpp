@@ -128,11 +128,12 @@ int run_web(const WebArgs& a) {
   LightBasis basis;
   bool loaded = false;
   {
-    const FormFactorMatrix ff = read_form_factors(FormFactorFile::open(a.ff).checked(m).require_dense(), m);
+    const FormFactorFile file = FormFactorFile::open(a.ff).checked(m).require_dense();
+    const FormFactorMatrix ff = read_form_factors(file, m);
     BasisOptions opt;
     opt.tol = a.basis_tol;
     opt.threads = a.threads;
-    basis = load_or_solve_basis(a.basis, m, a.ff, dense_float32_view(ff.dense_float32_values(), n), lights, opt, &loaded);
+    basis = load_or_solve_basis(a.basis, m, file, dense_float32_view(ff.dense_float32_values(), n), lights, opt, &loaded);
   }
   std::vector<float> positions;
   positions.reserve(9 * n);

@@ -39,16 +39,6 @@ struct Reader {
 
 }  // namespace
 
-uint64_t form_factor_checksum(const std::string& ff_path, const Mesh& m) {
-  const FormFactorFileInfo info = check_form_factor_file(ff_path, m);
-  std::ifstream f(ff_path, std::ios::binary);
-  uint64_t sum = 0;
-  f.seekg(std::streamoff(info.checksum_offset()));
-  if (!f.read(reinterpret_cast<char*>(&sum), sizeof sum))
-    throw hpcgi::UsageError(ff_path + ": cannot read the form-factor file's checksum");
-  return sum;
-}
-
 uint64_t colours_hash(const Mesh& m) {
   Fnv64 h;
   for (const Patch& p : m.patches) {
@@ -58,8 +48,8 @@ uint64_t colours_hash(const Mesh& m) {
   return h.finish();
 }
 
-BasisKey basis_key(const Mesh& m, const std::string& ff_path) {
-  return {m.size(), mesh_hash(m), form_factor_checksum(ff_path, m), colours_hash(m)};
+BasisKey basis_key(const Mesh& m, const FormFactorFile& ff) {
+  return {m.size(), mesh_hash(m), ff.checked(m).stored_checksum(), colours_hash(m)};
 }
 
 void save_basis(const std::string& path, const BasisKey& key, const LightBasis& basis) {
@@ -143,10 +133,10 @@ LightBasis load_basis(const std::string& path, const BasisKey& key, const std::v
   return basis;
 }
 
-LightBasis load_or_solve_basis(const std::string& path, const Mesh& m, const std::string& ff_path,
+LightBasis load_or_solve_basis(const std::string& path, const Mesh& m, const FormFactorFile& ff,
                                const FFMatrixView& F, const std::vector<NamedEntity>& lights, const BasisOptions& opt,
                                bool* loaded) {
-  const BasisKey key = basis_key(m, ff_path);
+  const BasisKey key = basis_key(m, ff);
   *loaded = !path.empty() && std::ifstream(path, std::ios::binary).good();
   if (*loaded) return load_basis(path, key, lights);
   LightBasis b = solve_light_basis(m, F, lights, opt);

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <string>
 
+#include "radiosity/formfactor/file/file.hpp"
 #include "radiosity/mesh.hpp"
 #include "radiosity/relight/basis.hpp"
 
@@ -22,10 +23,8 @@ struct BasisKey {
   size_t n = 0;
   uint64_t mesh = 0, form_factors = 0, colours = 0;
 };
-BasisKey basis_key(const Mesh& m, const std::string& ff_path);
-
-// The checksum a form-factor file ends with (after its header is checked against the mesh).
-uint64_t form_factor_checksum(const std::string& ff_path, const Mesh& m);
+// ff: the --ff file (checked against m here), whose stored checksum names F's values.
+BasisKey basis_key(const Mesh& m, const FormFactorFile& ff);
 
 // FNV-1a of every patch's emission and reflectivity (bit patterns): a basis holds for these colours only.
 uint64_t colours_hash(const Mesh& m);
@@ -39,7 +38,7 @@ LightBasis load_basis(const std::string& path, const BasisKey& key, const std::v
 
 // The basis of relight and web: read from `path` when it exists (refused as load_basis says), else solved on F
 // (the --ff file's values) and, when path is not empty, saved there. *loaded says which.
-LightBasis load_or_solve_basis(const std::string& path, const Mesh& m, const std::string& ff_path,
+LightBasis load_or_solve_basis(const std::string& path, const Mesh& m, const FormFactorFile& ff,
                                const FFMatrixView& F, const std::vector<NamedEntity>& lights, const BasisOptions& opt,
                                bool* loaded);
 

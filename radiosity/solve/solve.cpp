@@ -122,6 +122,8 @@ enum Facts : unsigned {
   kOneThread = 256,      // one thread, one block of rows
   kFuses = 512,          // takes --fused
   kSplitsRows = 1024,    // splits F's rows between a GPU and the host
+  kCublas = 2048,        // calls cuBLAS
+  kCusparse = 4096,      // calls cuSPARSE (csr float32 F)
 };
 SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, std::vector<Layout> layouts,
                  std::vector<Precision> precisions, Build build, const char* summary) {
@@ -137,6 +139,8 @@ SolveBackend row(const char* name, unsigned facts, std::vector<Method> methods, 
   b.one_thread = (facts & kOneThread) != 0;
   b.fuses = (facts & kFuses) != 0;
   b.splits_rows = (facts & kSplitsRows) != 0;
+  b.cublas = (facts & kCublas) != 0;
+  b.cusparse = (facts & kCusparse) != 0;
   return b;
 }
 }  // namespace
@@ -158,9 +162,9 @@ const std::vector<SolveBackend>& solve_backends() {
           built_in(run_kernels<make_openmp<float>, make_openmp<double>>),
           "the same kernels, OpenMP threads over static row blocks aligned to cache lines (gauss-seidel and "
           "sor: Gauss-Seidel inside a thread's block, Jacobi between blocks)"),
-      row("cuda", kTolerance | kSparseStorage | kGpu, kJacobiBicgstab, {Layout::aos}, kBoth, GPU_BACKEND(make_cuda),
+      row("cuda", kTolerance | kSparseStorage | kGpu | kCusparse, kJacobiBicgstab, {Layout::aos}, kBoth, GPU_BACKEND(make_cuda),
           "GPU, own kernels on r,g,b records: each warp reads two rows of F once for the three channels"),
-      row("cublas", kTolerance | kSparseStorage | kGpu | kFuses, kJacobiBicgstab, {Layout::soa}, kBoth,
+      row("cublas", kTolerance | kSparseStorage | kGpu | kFuses | kCublas | kCusparse, kJacobiBicgstab, {Layout::soa}, kBoth,
           GPU_BACKEND(make_cublas),
           "GPU, cuBLAS: cublasSgemv per channel (--fused: one cublasSgemm for all three), cublasSdot; "
           "csr float32 by cuSPARSE"),

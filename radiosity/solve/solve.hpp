@@ -38,6 +38,8 @@ struct SolveBackend {
   bool one_thread = false;      // one thread, one block of rows (gauss-seidel and sor sweep every row in order)
   bool fuses = false;           // takes --fused: the three channels' products as one
   bool splits_rows = false;     // splits F's rows between a GPU and the host (--distribution, --overlap)
+  bool cublas = false;          // calls cuBLAS
+  bool cusparse = false;        // calls cuSPARSE (the product of csr float32 F: sparse_device.cuh)
 };
 const std::vector<SolveBackend>& solve_backends();
 

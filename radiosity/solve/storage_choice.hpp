@@ -10,6 +10,8 @@
 // keeps dense.
 #pragma once
 #include <cstddef>
+#include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "radiosity/solve/storage/ff_matrix.hpp"
@@ -45,5 +47,31 @@ FFStorage fewest_bytes_storage(const std::vector<FFStorage>& readable, FFValues 
 StorageCounts count_storages(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
                              const std::vector<FFStorage>& readable, size_t row_begin = 0,
                              size_t row_end = SIZE_MAX);
+
+// The storage a run's form factors take and what they keep.
+struct StorageChoice {
+  FFStorage storage = FFStorage::dense;
+  size_t kept = 0;       // values kept (summed over MPI ranks)
+  bool dropped = false;  // the threshold drops some of the file's values
+  size_t bridges = 0;    // compressed's bridges
+  RunCounts runs;        // the runs storage's runs and values
+};
+
+// The storage of a solve on backend b of dense float32 F (rows [row_begin, row_end), F pointing at the first; an MPI
+// rank's block, the counts summed over the ranks): `asked` where given, else fewest_bytes_storage of what b reads.
+StorageChoice choose_storage(const float* F, size_t n, const std::vector<Rgb>& reflectivity, double threshold,
+                             const SolveBackend& b, FFValues values, std::optional<FFStorage> asked, size_t row_begin,
+                             size_t row_end);
+// A sparse file's matrix as stored: its own storage and counts.
+StorageChoice stored_storage(const FormFactorMatrix& stored);
+
+// Each row's entries in opt's storage at i (its kept values, and compressed's bridges; runs: its stored values) and
+// its runs (runs storage) at n + i, counted in rows [row_begin, row_end) of dense F (F pointing at the first) and
+// summed over the MPI ranks.
+std::vector<uint64_t> row_entries(const float* F, size_t n, const std::vector<Rgb>& reflectivity,
+                                  const FFMatrixOptions& opt, size_t row_begin, size_t row_end);
+// Each row's cost in the product from row_entries: its entries, kRunCost a run and kRowCost (ff_matrix.hpp); the
+// work an MPI rank's rows are balanced by (dist::split_by_work).
+std::vector<uint64_t> row_costs(const std::vector<uint64_t>& entries);
 
 }  // namespace radiosity

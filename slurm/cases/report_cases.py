@@ -2,6 +2,8 @@
 4.2's iteration counts: case lists for slurm/cases/generate.py."""
 from presets import PRESETS, REPORT_JACOBI_ITERS, SCENES, figure42_scene, scene_args
 
+OVERLAP_AT = (0.2, 0.5, 0.8)  # Table 4.5's d run again with --overlap
+
 
 def experiments(preset, p):
     e = {}
@@ -57,6 +59,19 @@ def experiments(preset, p):
     e["table45"] = (f"Table 4.5: hybrid CPU/GPU Jacobi to 1e-6 on scene {hs}, distribution factor 0.0 .. 1.0", tr, [
         f"{solve} {scene_args(hs, preset)} --tol 1e-6 --backend hybrid --layout aos --distribution {d / 10:.1f}{mt}"
         for d in range(11)])
+    # The GPU's cases beyond the report's lines (the GPU kit runs them, gpukit/plan.py): Table 4.5 again with
+    # --overlap where something is copied (never at d = 0 and 1, where --overlap changes nothing:
+    # radiosity/solve/gpu/hybrid.cu); Table 4.3's CUDA with RRV's 32 fixed steps; and the largest scene's 32 steps
+    # with float16 F, compressed (issue 18's target: the GPU reads 16-bit F only there).
+    e["table45-overlap"] = (f"Table 4.5 with --overlap: hybrid CPU/GPU Jacobi to 1e-6 on scene {hs}, distribution "
+                            f"factor {', '.join(f'{d:.1f}' for d in OVERLAP_AT)}", tr, [
+        f"{solve} {scene_args(hs, preset)} --tol 1e-6 --backend hybrid --layout aos --distribution {d:.1f}{mt} "
+        "--storage dense --overlap" for d in OVERLAP_AT])
+    steps32 = lambda s: f"{solve} {scene_args(s, preset)} --steps 32 --backend cuda --layout aos{mt}"
+    e["table43-steps32"] = ("Table 4.3's CUDA (AOS) with RRV's 32 fixed Jacobi steps", tr,
+                            [steps32(s) for s in p["scenes"]])
+    e["gpu-float16"] = (f"Scene {max(p['scenes'])}, 32 Jacobi steps on CUDA (AOS) with float16 F, compressed", tr,
+                        [steps32(max(p["scenes"])) + " --storage compressed --ff-precision float16"])
     # The report's scene 3 (RRV's room3.xml) from its camera; ci (no room3 among its scenes) coarsens it
     # (--divide 8: 5960 patches) and takes a small hemicube, so that its run is seconds.
     e["figure42"] = ("Figure 4.2: scene 3 after 1, 2, 4, 8 and 32 Jacobi steps", 1, [

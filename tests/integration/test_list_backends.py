@@ -76,3 +76,22 @@ def test_the_kit_plan_reads_the_facts_not_a_copy():
     assert c.is_gpu() and not cases.Case("table41", 1, "bin/poisson --backend openmp --n 64").is_gpu()
     n = 1024
     assert plan.case_estimate(c) == round(1 + 1581 * n / 1024 * 16 * 8 * n * n / plan.BYTES_PER_S)
+
+
+def test_the_cuda_libraries_each_backend_lists_are_what_the_gpu_kit_skips_it_without():
+    """"libraries": the CUDA libraries a backend calls (cuBLAS: poisson's cublas1 and cublas2 and radiosity's cublas;
+    cuSPARSE: radiosity's cuda and cublas for csr float32 F), the facts by which the kit's plan skips a step on a node
+    that lacks one (gpukit/plan.py needs_of)."""
+    libs = {(p, b["name"]): b["libraries"] for p in backend_facts.PROGRAMS for b in listed(p)["backends"]}
+    assert {k: v for k, v in libs.items() if v} == {("poisson", "cublas1"): ["cublas"],
+                                                    ("poisson", "cublas2"): ["cublas"],
+                                                    ("radiosity", "cuda"): ["cusparse"],
+                                                    ("radiosity", "cublas"): ["cublas", "cusparse"]}
+    from gpukit.plan import needs_of
+    assert needs_of(["bin/poisson", "--backend", "cublas2", "--n", "64"]) == {"cublas"}
+    assert needs_of(["bin/poisson", "--backend", "cuda", "--n", "64"]) == set()
+    solve = ["bin/radiosity", "solve", "s.xml", "--ff", "s.ff"]
+    assert needs_of(solve + ["--backend", "cuda", "--storage", "csr"]) == {"cusparse"}
+    assert needs_of(solve + ["--backend", "cuda", "--storage", "csr", "--precision", "double"]) == set()
+    assert needs_of(solve + ["--backend", "cublas", "--storage", "dense"]) == {"cublas"}
+    assert needs_of(solve + ["--backend", "hybrid", "--storage", "csr"]) == set()

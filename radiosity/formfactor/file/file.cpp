@@ -1,7 +1,10 @@
 #include "radiosity/formfactor/file/file.hpp"
 
+#include <fstream>
 #include <stdexcept>
 #include <utility>
+
+#include "common/errors.hpp"
 
 #include "radiosity/formfactor/file/sparse.hpp"
 
@@ -50,6 +53,16 @@ FormFactorMatrix FormFactorFile::read(const FormFactorRead& how) const {
   }
   if (sparse()) return load_form_factor_matrix(path(), info_);
   return dense_matrix(load_form_factors(path(), info_));
+}
+
+uint64_t FormFactorFile::stored_checksum() const {
+  if (!checked_) throw std::logic_error("FormFactorFile::stored_checksum: the file was not checked against its mesh");
+  std::ifstream f(path(), std::ios::binary);
+  uint64_t sum = 0;
+  f.seekg(std::streamoff(kFormFactorHeaderBytes + info_.payload_bytes));  // both versions end in the checksum
+  if (!f.read(reinterpret_cast<char*>(&sum), sizeof sum))
+    throw hpcgi::UsageError(path() + ": cannot read the form-factor file's checksum");
+  return sum;
 }
 
 }  // namespace radiosity

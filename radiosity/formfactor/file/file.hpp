@@ -6,6 +6,7 @@
 // The format and the writers: format.hpp (version 1, dense, and the header), sparse.hpp (version 2), mpi_rows.hpp
 // (the ranks' rows of version 1).
 #pragma once
+#include <cstdint>
 #include <string>
 
 #include "radiosity/dist/split.hpp"
@@ -43,6 +44,9 @@ class FormFactorFile {
   // The values as asked (checked() first: std::logic_error else), with every check of the file's readers (the
   // checksum, each value in [0, 1], F_ii = 0, a sparse file's structure).
   FormFactorMatrix read(const FormFactorRead& how = {}) const;
+  // The checksum the file ends with, read alone (checked() first): the values' identity, for what is derived from
+  // them (the light basis, relight/basis_file.hpp). Not verified here: read() does.
+  uint64_t stored_checksum() const;
 
  private:
   FormFactorFileHeader header_;

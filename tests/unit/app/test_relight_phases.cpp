@@ -38,7 +38,7 @@ class RelightPhases : public ::testing::Test {
     relight::BasisOptions bopt;
     bopt.tol = args.basis_tol;
     bool loaded = false;
-    basis = relight::load_or_solve_basis("", in.m, args.ff, in.basis_view, in.lights, bopt, &loaded);
+    basis = relight::load_or_solve_basis("", in.m, in.ff_file, in.basis_view, in.lights, bopt, &loaded);
     return serve_frames(args, p, in, basis);
   }
   std::string frames_file(const std::string& json) {

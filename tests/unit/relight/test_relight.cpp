@@ -175,8 +175,8 @@ TEST(BasisFile, RoundTripAndRefusals) {
   opt.threads = 1;
   const LightBasis b = solve_light_basis(s.m, dense_float32_view(s.F.data(), 200), lights, opt);
   const std::string ff = ff_file(s, "a.ff"), path = temp_path("a.basis");
-  save_basis(path, basis_key(s.m, ff), b);
-  const LightBasis r = load_basis(path, basis_key(s.m, ff), lights);
+  save_basis(path, basis_key(s.m, FormFactorFile::open(ff)), b);
+  const LightBasis r = load_basis(path, basis_key(s.m, FormFactorFile::open(ff)), lights);
   ASSERT_EQ(r.lights, b.lights);
   EXPECT_EQ(r.B, b.B);
   EXPECT_EQ(r.max_residual, b.max_residual);
@@ -184,14 +184,14 @@ TEST(BasisFile, RoundTripAndRefusals) {
   Scene other_ff = s;
   other_ff.F[5] *= 0.5f;
   const std::string ff2 = ff_file(other_ff, "b.ff");
-  EXPECT_NE(refusal([&] { load_basis(path, basis_key(s.m, ff2), lights); }).find("other form factors"), std::string::npos);
+  EXPECT_NE(refusal([&] { load_basis(path, basis_key(s.m, FormFactorFile::open(ff2)), lights); }).find("other form factors"), std::string::npos);
   Scene moved = s;
   moved.m.patches[0].v[0].x += 1e-3;
   const std::string ff3 = ff_file(moved, "c.ff");
-  EXPECT_NE(refusal([&] { load_basis(path, basis_key(moved.m, ff3), lights); }).find("another mesh"), std::string::npos);
+  EXPECT_NE(refusal([&] { load_basis(path, basis_key(moved.m, FormFactorFile::open(ff3)), lights); }).find("another mesh"), std::string::npos);
   Scene recoloured = s;
   recoloured.m.patches[3].reflectivity[1] = 0.5;
-  EXPECT_NE(refusal([&] { load_basis(path, basis_key(recoloured.m, ff), lights); }).find("other emissions"),
+  EXPECT_NE(refusal([&] { load_basis(path, basis_key(recoloured.m, FormFactorFile::open(ff)), lights); }).find("other emissions"),
             std::string::npos);
   // One flipped byte in the values, and a truncated file.
   std::string bytes;
@@ -204,9 +204,9 @@ TEST(BasisFile, RoundTripAndRefusals) {
   const std::string corrupt = temp_path("corrupt.basis"), cut = temp_path("cut.basis");
   std::ofstream(corrupt, std::ios::binary) << bad;
   std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 9);
-  EXPECT_NE(refusal([&] { load_basis(corrupt, basis_key(s.m, ff), lights); }).find("checksum"), std::string::npos);
-  EXPECT_NE(refusal([&] { load_basis(cut, basis_key(s.m, ff), lights); }).find("bytes"), std::string::npos);
-  EXPECT_NE(refusal([&] { load_basis(ff, basis_key(s.m, ff), lights); }).find("not a light-basis file"),
+  EXPECT_NE(refusal([&] { load_basis(corrupt, basis_key(s.m, FormFactorFile::open(ff)), lights); }).find("checksum"), std::string::npos);
+  EXPECT_NE(refusal([&] { load_basis(cut, basis_key(s.m, FormFactorFile::open(ff)), lights); }).find("bytes"), std::string::npos);
+  EXPECT_NE(refusal([&] { load_basis(ff, basis_key(s.m, FormFactorFile::open(ff)), lights); }).find("not a light-basis file"),
             std::string::npos);
 }
 
