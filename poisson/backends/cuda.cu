@@ -6,7 +6,7 @@
 //   onesweep: one kernel per iteration (sweep_kernel): read r, p, x, write r, p, x: 6 vectors, plus the halo
 //             rows and columns each tile recomputes.
 //   --precond mg: classic with z = M⁻¹ r by the level kernels of mg_cuda.cuh, [r·z] and [p = z + βp].
-//   --method fmg: the F-cycle of mg.hpp on the same level kernels, then V-cycles, [w = Az], [x += z, r -= w, r·r].
+//   --method fmg: the F-cycle of mg.hpp on the same level kernels, then V-cycles, [x += z], [r = b - Ax, r·r].
 #include <memory>
 
 #include "poisson/contract/backends.hpp"
@@ -40,6 +40,25 @@ __device__ inline void block_sum_into(double v, double* out) {
 #define FOR_INTERIOR(n, s, k, idx)                                                                       \
   for (long k = blockIdx.x * static_cast<long>(blockDim.x) + threadIdx.x, idx = 0; k < (n) * (n) &&      \
        ((idx = (k / (n) + 1) * (s) + (k % (n)) + 1), true); k += static_cast<long>(gridDim.x) * blockDim.x)
+
+// x += z on the interior points (fmg's correction).
+template <class T>
+__global__ void __launch_bounds__(kBlock) add_kernel(long n, long s, const T* __restrict__ z, T* __restrict__ x) {
+  FOR_INTERIOR(n, s, k, idx) { x[idx] += z[idx]; }
+}
+
+// r = b - A x and r·r, accumulated in double into *rr (fmg's true residual of the new x).
+template <class T>
+__global__ void __launch_bounds__(kBlock) residual_kernel(long n, long s, const T* __restrict__ x,
+                                                          const T* __restrict__ b, T* __restrict__ r, double* rr) {
+  double acc = 0;
+  FOR_INTERIOR(n, s, k, idx) {
+    const T v = b[idx] - five_point_at(x, s, idx);
+    r[idx] = v;
+    acc += static_cast<double>(v) * v;
+  }
+  block_sum_into(acc, rr);
+}
 
 template <class T>
 __global__ void __launch_bounds__(kBlock) calc_w_kernel(long n, long s, const T* __restrict__ p, T* __restrict__ w,
@@ -189,14 +208,13 @@ class Cuda final : public GpuBase<T, OneSweepKernels<T>>, public Preconditioned 
     full ? fmg(*mg_) : vcycle_solve(*mg_, 0, true);
     return correct();
   }
-  // x += z, r -= A z, r·r: the classic kernels with p = z, w = A z (w is level 0's residual, free here), α = 1.
+  // x += z; r = b - A x recomputed from the new x (serial's correct(): the stopping test reads the true residual),
+  // and r·r.
   double correct() {
-    zero();
-    calc_w_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, z_->get(), B::w_.get(), sum_.get());
+    add_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, z_->get(), B::x_.get());
     CUDA_CHECK_LAUNCH();
     zero();
-    calc_ur_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, T(1), z_->get(), B::w_.get(), B::x_.get(), B::r_.get(),
-                                           sum_.get());
+    residual_kernel<T><<<blocks_, kBlock>>>(B::n_, B::s_, B::x_.get(), B::b_.get(), B::r_.get(), sum_.get());
     CUDA_CHECK_LAUNCH();
     return fetch(1)[0];
   }

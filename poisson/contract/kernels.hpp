@@ -89,13 +89,14 @@ class Preconditioned {
   // (mg.hpp fmg, from x = 0 after init), solve_cycle(false) by one solver V-cycle (mg.hpp vcycle_solve); each
   // returns r·r of the new x (local to the rank on a distributed block: the caller's backend reduces it). A
   // backend may run the cycles on x itself (openmp, mpi) or on the correction z of the residual equation from z = 0
-  // followed by x += z, r -= A z (serial, cuda): the same iterates up to rounding.
+  // followed by x += z and r = b - A x (serial, cuda): the same iterates up to rounding, and every backend returns
+  // the residual of the new x itself (a recursive r -= A z would fall far below it in float).
   virtual double solve_cycle(bool full) = 0;
   // Grid sizes of the hierarchy, finest first (for the record).
   virtual std::vector<long> mg_sizes() const = 0;
   // The data-movement model of solve_cycle(true), the first iteration of --method fmg, on this backend's own
   // kernels, in vectors of N² (for the record's bandwidth): the F-cycle on each level, finest first (mg.hpp's
-  // fmg_vectors_per_level with the backend's level kernels), and what the iteration adds after it (x += z, r -= A z
+  // fmg_vectors_per_level with the backend's level kernels), and what the iteration adds after it (x += z, r = b - A x
   // where the cycles run on the correction z; 0 where they run on x).
   virtual std::vector<double> fmg_vectors_per_level() const = 0;
   virtual double fmg_correction_vectors() const = 0;

@@ -193,9 +193,9 @@ inline constexpr LevelKernelCosts kFusedLevelKernels{5.5, 6.5, 2.5};
 // the same without x = 0: 14.5. Transfers: restrict_rhs (x = 0, residual, restriction: 5.25), interpolate (x = 0,
 // prolongation: 3.25): 8.5.
 inline constexpr LevelKernelCosts kSeparateLevelKernels{15.5, 14.5, 8.5};
-// What the backends that cycle on the correction z (serial, cuda) add to each fmg iteration: w = A z, x += z,
-// r -= w, r·r (their vectors_per_iteration counts it too).
-inline constexpr int kFmgCorrectionVectors = 7;
+// What the backends that cycle on the correction z (serial, cuda) add to each fmg iteration: [x += z] 3,
+// [r = b - A x, r·r] 3 (their vectors_per_iteration counts it too).
+inline constexpr int kFmgCorrectionVectors = 6;
 
 // Vectors of N² of one solver V-cycle from x (vcycle_solve on level 0) of the hierarchy, fused level kernels.
 inline double mg_solve_vectors_per_cycle(long n) {
